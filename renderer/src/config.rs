@@ -1,0 +1,407 @@
+//! The scene file (TOML), typed. Every table rejects unknown keys; every error names the
+//! file and the key. The `[shadows]` table is kept raw here: only the CLI knows every shadow
+//! method, so it types that table itself (see `penumbra::config`).
+
+use crate::error::SceneError;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// A whole scene file, as written.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    /// glTF 2.0 files (.gltf or .glb), zero or more.
+    #[serde(default)]
+    pub model: Vec<ModelDesc>,
+    /// Rectangles of geometry (floors, walls, cards), zero or more.
+    #[serde(default)]
+    pub quad: Vec<QuadDesc>,
+    pub camera: CameraDesc,
+    #[serde(default)]
+    pub image: ImageDesc,
+    /// Rectangular area lights. When empty, emissive rectangles in the models become lights.
+    #[serde(default)]
+    pub light: Vec<LightDesc>,
+    /// The shadow method and its parameters, typed by the composition root (the CLI).
+    #[serde(default)]
+    pub shadows: toml::Table,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelDesc {
+    /// Relative to the scene file.
+    pub path: PathBuf,
+    /// Applied after the file's own node transforms: p' = translate + rotate(scale * p).
+    #[serde(default)]
+    pub translate: [f64; 3],
+    #[serde(default = "one")]
+    pub scale: f64,
+    #[serde(default)]
+    pub rotate_y_deg: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QuadDesc {
+    pub center: [f64; 3],
+    /// Full edge vectors: corners are center +- u/2 +- v/2.
+    pub u: [f64; 3],
+    pub v: [f64; 3],
+    /// Linear albedo.
+    #[serde(default = "default_quad_color")]
+    pub color: [f32; 3],
+}
+
+fn default_quad_color() -> [f32; 3] {
+    [0.8, 0.8, 0.8]
+}
+
+/// Either an explicit look-at camera or `from_gltf = true`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    /// Use the first camera of the first model (its node transform and yfov).
+    #[serde(default)]
+    pub from_gltf: bool,
+    pub position: Option<[f64; 3]>,
+    pub look_at: Option<[f64; 3]>,
+    #[serde(default = "default_up")]
+    pub up: [f64; 3],
+    /// Full vertical field of view in degrees.
+    #[serde(default = "default_yfov")]
+    pub yfov_deg: f64,
+}
+
+fn default_up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_yfov() -> f64 {
+    40.0
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImageDesc {
+    #[serde(default = "default_size")]
+    pub width: u32,
+    #[serde(default = "default_size")]
+    pub height: u32,
+    /// Primary samples per pixel: 1 = one ray through the pixel centre.
+    #[serde(default = "default_spp")]
+    pub spp: u32,
+}
+
+fn default_size() -> u32 {
+    512
+}
+fn default_spp() -> u32 {
+    1
+}
+
+impl Default for ImageDesc {
+    fn default() -> Self {
+        Self { width: default_size(), height: default_size(), spp: default_spp() }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightDesc {
+    pub center: [f64; 3],
+    /// Full edge vectors, perpendicular to each other; n = normalize(cross(u, v)).
+    pub u: [f64; 3],
+    pub v: [f64; 3],
+    /// Emitted radiance, only toward n.
+    pub radiance: [f32; 3],
+}
+
+/// Largest image side accepted; beyond it a typo (an extra zero) would allocate gigabytes.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// Largest supersampling rate accepted.
+pub const MAX_SPP: u32 = 4096;
+
+impl SceneFile {
+    /// Reads and validates a scene file. Relative model paths stay relative; resolve them
+    /// with [`SceneFile::resolve`].
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| SceneError::new(path, "", format!("cannot read scene file: {e}")))?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses scene text; `path` names the file in errors and anchors relative paths.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
+        let scene: SceneFile = deserialize_toml(text, path, "")?;
+        scene.validate(path)?;
+        Ok(scene)
+    }
+
+    /// The model path as the file system sees it (relative to the scene file's folder).
+    pub fn resolve(scene_path: &Path, model_path: &Path) -> PathBuf {
+        match scene_path.parent() {
+            Some(dir) if model_path.is_relative() => dir.join(model_path),
+            _ => model_path.to_path_buf(),
+        }
+    }
+
+    fn validate(&self, path: &Path) -> Result<(), SceneError> {
+        let err = |key: String, msg: &str| Err(SceneError::new(path, key, msg));
+        for (i, m) in self.model.iter().enumerate() {
+            if !finite3(m.translate) {
+                return err(format!("model[{i}].translate"), "must be finite");
+            }
+            if !(m.scale.is_finite() && m.scale > 0.0) {
+                return err(format!("model[{i}].scale"), "must be a finite number > 0");
+            }
+            if !m.rotate_y_deg.is_finite() {
+                return err(format!("model[{i}].rotate_y_deg"), "must be finite");
+            }
+        }
+        for (i, q) in self.quad.iter().enumerate() {
+            for (k, v) in [("center", q.center), ("u", q.u), ("v", q.v)] {
+                if !finite3(v) {
+                    return err(format!("quad[{i}].{k}"), "must be finite");
+                }
+            }
+            if cross_len(q.u, q.v) <= 0.0 {
+                return err(format!("quad[{i}].u"), "u and v span zero area");
+            }
+            if !q.color.iter().all(|c| c.is_finite() && *c >= 0.0) {
+                return err(format!("quad[{i}].color"), "must be finite and >= 0");
+            }
+        }
+        let c = &self.camera;
+        if c.from_gltf {
+            if c.position.is_some() || c.look_at.is_some() {
+                return err(
+                    "camera.from_gltf".into(),
+                    "give either from_gltf = true or position/look_at, not both",
+                );
+            }
+            if self.model.is_empty() {
+                return err("camera.from_gltf".into(), "needs at least one [[model]]");
+            }
+        } else {
+            let (Some(pos), Some(at)) = (c.position, c.look_at) else {
+                let key = if c.position.is_none() { "camera.position" } else { "camera.look_at" };
+                return err(key.into(), "missing (or set camera.from_gltf = true)");
+            };
+            if !finite3(pos) {
+                return err("camera.position".into(), "must be finite");
+            }
+            if !finite3(at) {
+                return err("camera.look_at".into(), "must be finite");
+            }
+            let forward = sub(at, pos);
+            if dot(forward, forward) <= 0.0 {
+                return err("camera.look_at".into(), "equals camera.position");
+            }
+            if !finite3(c.up) || cross_len(forward, c.up) <= 1e-12 * len(forward) * len(c.up) {
+                return err("camera.up".into(), "must be finite and not parallel to the view direction");
+            }
+        }
+        if !(c.yfov_deg.is_finite() && c.yfov_deg > 0.0 && c.yfov_deg < 180.0) {
+            return err("camera.yfov_deg".into(), "must be in (0, 180)");
+        }
+        let im = &self.image;
+        for (k, v) in [("width", im.width), ("height", im.height)] {
+            if v == 0 || v > MAX_IMAGE_SIDE {
+                return err(format!("image.{k}"), &format!("must be in 1..={MAX_IMAGE_SIDE}"));
+            }
+        }
+        if im.spp == 0 || im.spp > MAX_SPP {
+            return err("image.spp".into(), &format!("must be in 1..={MAX_SPP}"));
+        }
+        for (i, l) in self.light.iter().enumerate() {
+            validate_light(l, &format!("light[{i}]"), path)?;
+        }
+        Ok(())
+    }
+}
+
+/// Checks a light rectangle: finite, non-zero area, perpendicular edges, radiance >= 0.
+pub fn validate_light(l: &LightDesc, key: &str, path: &Path) -> Result<(), SceneError> {
+    let err = |k: &str, msg: &str| Err(SceneError::new(path, format!("{key}.{k}"), msg));
+    for (k, v) in [("center", l.center), ("u", l.u), ("v", l.v)] {
+        if !finite3(v) {
+            return err(k, "must be finite");
+        }
+    }
+    let (lu, lv) = (len(l.u), len(l.v));
+    if lu == 0.0 {
+        return err("u", "zero-length edge: the light has zero area");
+    }
+    if lv == 0.0 {
+        return err("v", "zero-length edge: the light has zero area");
+    }
+    if cross_len(l.u, l.v) <= 1e-9 * lu * lv {
+        return err("v", "parallel to u: the light has zero area");
+    }
+    if dot(l.u, l.v).abs() > 1e-4 * lu * lv {
+        return err("v", "must be perpendicular to u (a rectangle)");
+    }
+    if !l.radiance.iter().all(|c| c.is_finite() && *c >= 0.0) {
+        return err("radiance", "must be finite and >= 0");
+    }
+    Ok(())
+}
+
+/// Deserialises TOML text into `T`, turning serde's error into a [`SceneError`] that names
+/// the key path (`prefix` is prepended, e.g. `shadows`) or, for syntax errors, the byte
+/// offset with line and column.
+pub fn deserialize_toml<T: serde::de::DeserializeOwned>(
+    text: &str,
+    path: &Path,
+    prefix: &str,
+) -> Result<T, SceneError> {
+    let de = toml::Deserializer::new(text);
+    serde_path_to_error::deserialize(de).map_err(|e| {
+        let key = join_key(prefix, &e.path().to_string());
+        let inner = e.inner();
+        let message = inner.message().to_string();
+        let key = with_unknown_field(&key, &message);
+        let key = if key.is_empty() || key == "." {
+            match inner.span() {
+                Some(span) => location(text, span.start),
+                None => String::new(),
+            }
+        } else {
+            key
+        };
+        SceneError::new(path, key, message)
+    })
+}
+
+/// Deserialises an already-parsed TOML value (a sub-table) into `T`, with key paths under
+/// `prefix`.
+pub fn deserialize_value<T: serde::de::DeserializeOwned>(
+    value: toml::Value,
+    path: &Path,
+    prefix: &str,
+) -> Result<T, SceneError> {
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        let key = join_key(prefix, &e.path().to_string());
+        let message = e.inner().message().to_string();
+        SceneError::new(path, with_unknown_field(&key, &message), message)
+    })
+}
+
+fn join_key(prefix: &str, path: &str) -> String {
+    let path = if path == "." { "" } else { path };
+    match (prefix.is_empty(), path.is_empty()) {
+        (true, _) => path.to_string(),
+        (false, true) => prefix.to_string(),
+        (false, false) => format!("{prefix}.{path}"),
+    }
+}
+
+/// serde reports an unknown field at the table that holds it; name the field itself.
+fn with_unknown_field(key: &str, message: &str) -> String {
+    // serde_path_to_error already ends the path with the field for tables; values typed
+    // later (deserialize_value) may not.
+    if let Some(rest) = message.strip_prefix("unknown field `")
+        && let Some(name) = rest.split('`').next()
+        && !(key == name || key.ends_with(&format!(".{name}")))
+    {
+        return join_key(key, name);
+    }
+    key.to_string()
+}
+
+fn location(text: &str, byte: usize) -> String {
+    let byte = byte.min(text.len());
+    let before = &text[..byte];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    format!("byte {byte} (line {line}, column {column})")
+}
+
+fn finite3(v: [f64; 3]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+fn len(a: [f64; 3]) -> f64 {
+    dot(a, a).sqrt()
+}
+fn cross_len(a: [f64; 3], b: [f64; 3]) -> f64 {
+    len([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"
+[camera]
+position = [0.0, 1.0, 3.0]
+look_at = [0.0, 0.0, 0.0]
+
+[[light]]
+center = [0.0, 2.0, 0.0]
+u = [0.5, 0.0, 0.0]
+v = [0.0, 0.0, 0.5]
+radiance = [1.0, 1.0, 1.0]
+"#;
+
+    fn parse(text: &str) -> Result<SceneFile, SceneError> {
+        SceneFile::parse(text, Path::new("s.toml"))
+    }
+
+    #[test]
+    fn minimal_scene_parses_with_defaults() {
+        let s = parse(MINIMAL).unwrap();
+        assert_eq!((s.image.width, s.image.height, s.image.spp), (512, 512, 1));
+        assert_eq!(s.camera.yfov_deg, 40.0);
+        assert!(s.shadows.is_empty());
+    }
+
+    #[test]
+    fn unknown_key_is_named_with_its_table() {
+        let e = parse(&MINIMAL.replace("look_at", "lookat")).unwrap_err();
+        assert_eq!(e.key, "camera.lookat", "{e}");
+        let e = parse(&format!("{MINIMAL}\n[image]\nwidht = 3\n")).unwrap_err();
+        assert_eq!(e.key, "image.widht", "{e}");
+        let e =
+            parse(&format!("{MINIMAL}\n[[quad]]\ncenter=[0,0,0]\nu=[1,0,0]\nv=[0,0,1]\ncolour=[1,1,1]\n"))
+                .unwrap_err();
+        assert_eq!(e.key, "quad[0].colour", "{e}");
+    }
+
+    #[test]
+    fn wrong_type_names_key_and_syntax_error_names_offset() {
+        let e = parse(&format!("{MINIMAL}\n[image]\nwidth = \"big\"\n")).unwrap_err();
+        assert_eq!(e.key, "image.width", "{e}");
+        let e = parse("[camera\nposition = 1").unwrap_err();
+        assert!(e.key.starts_with("byte "), "{e}");
+        assert_eq!(e.to_string().lines().count(), 1);
+    }
+
+    #[test]
+    fn zero_area_and_skewed_lights_are_rejected() {
+        let e = parse(&MINIMAL.replace("u = [0.5, 0.0, 0.0]", "u = [0.0, 0.0, 0.0]")).unwrap_err();
+        assert_eq!(e.key, "light[0].u");
+        let e = parse(&MINIMAL.replace("u = [0.5, 0.0, 0.0]", "u = [0.5, 0.0, 0.1]")).unwrap_err();
+        assert_eq!(e.key, "light[0].v");
+        let e = parse(&MINIMAL.replace("u = [0.5, 0.0, 0.0]", "u = [0.5, nan, 0.0]")).unwrap_err();
+        assert_eq!(e.key, "light[0].u");
+    }
+
+    #[test]
+    fn camera_must_be_complete() {
+        let e = parse(&MINIMAL.replace("look_at = [0.0, 0.0, 0.0]", "")).unwrap_err();
+        assert_eq!(e.key, "camera.look_at");
+        let e =
+            parse(&MINIMAL.replace("look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 1.0, 3.0]")).unwrap_err();
+        assert_eq!(e.key, "camera.look_at");
+    }
+}

@@ -1,0 +1,315 @@
+//! glTF 2.0 (.gltf + .bin + images, or .glb) into world-space triangles, materials and
+//! textures. Node transforms are composed in f64; every node of the default scene is
+//! expanded, nested TRS and matrices alike. Skins and morph targets are ignored (bind pose).
+
+use crate::error::SceneError;
+use crate::material::{AlphaMode, Material, Texture, TextureRef, Wrap};
+use glam::{Affine2, DMat3, DMat4, DVec3, Mat2, Vec2, Vec3, Vec4};
+use gltf::mesh::Mode;
+use std::collections::HashMap;
+use std::path::Path;
+
+/// A triangle as loaded: world positions in f64 (before the scene is recentred), optional
+/// world-space vertex normals, texture coordinates and a material index (into the scene's
+/// material list).
+#[derive(Debug, Clone, Copy)]
+pub struct SourceTriangle {
+    pub p: [DVec3; 3],
+    pub n: Option<[Vec3; 3]>,
+    pub uv: [Vec2; 3],
+    pub material: u32,
+}
+
+/// Triangles of one emissive primitive instance: a candidate rectangular light.
+#[derive(Debug, Clone)]
+pub struct EmitterCandidate {
+    pub triangles: Vec<[DVec3; 3]>,
+    pub radiance: Vec3,
+    pub double_sided: bool,
+}
+
+/// A camera found in a glTF file: its node's world transform and vertical fov (radians).
+#[derive(Debug, Clone, Copy)]
+pub struct GltfCamera {
+    pub world: DMat4,
+    pub yfov: f64,
+}
+
+/// Everything the loader appends to.
+#[derive(Debug, Default)]
+pub struct Geometry {
+    pub triangles: Vec<SourceTriangle>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub emitters: Vec<EmitterCandidate>,
+    /// Triangles dropped because they have zero area.
+    pub degenerate: u64,
+}
+
+/// Loads `path` into `geometry`, transformed by `model_from_file` after the file's own node
+/// transforms. Returns the file's first camera, if any.
+pub fn load_gltf(
+    path: &Path,
+    model_from_file: DMat4,
+    geometry: &mut Geometry,
+) -> Result<Option<GltfCamera>, SceneError> {
+    let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
+    let gltf = gltf::Gltf::open(path).map_err(|e| fail("", format!("cannot load glTF: {e}")))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
+        .map_err(|e| fail("buffers", format!("cannot load buffer: {e}")))?;
+    let doc = &gltf.document;
+
+    // Materials (only what shading and the alpha test need), with their base colour
+    // textures decoded once each.
+    let material_base = geometry.materials.len() as u32;
+    let mut image_slots: HashMap<usize, u32> = HashMap::new();
+    for m in doc.materials() {
+        let key = format!("materials[{}]", m.index().unwrap_or(0));
+        let pbr = m.pbr_metallic_roughness();
+        let base_color = Vec4::from(pbr.base_color_factor());
+        if !base_color.is_finite() {
+            return Err(fail(&format!("{key}.pbrMetallicRoughness.baseColorFactor"), "not finite".into()));
+        }
+        let base_color_texture = match pbr.base_color_texture() {
+            None => None,
+            Some(info) => {
+                let texture = info.texture();
+                let image = texture.source();
+                let slot = match image_slots.get(&image.index()) {
+                    Some(&s) => s,
+                    None => {
+                        let data = gltf::image::Data::from_source(image.source(), Some(base), &buffers)
+                            .map_err(|e| {
+                                fail(&format!("images[{}]", image.index()), format!("cannot decode: {e}"))
+                            })?;
+                        let tex = to_rgba8(&data).ok_or_else(|| {
+                            fail(
+                                &format!("images[{}]", image.index()),
+                                format!("unsupported pixel format {:?}", data.format),
+                            )
+                        })?;
+                        geometry.textures.push(tex);
+                        let s = geometry.textures.len() as u32 - 1;
+                        image_slots.insert(image.index(), s);
+                        s
+                    }
+                };
+                let sampler = texture.sampler();
+                let transform = info.texture_transform().map_or(Affine2::IDENTITY, |t| {
+                    let (s, c) = t.rotation().sin_cos();
+                    let rotation = Mat2::from_cols(Vec2::new(c, s), Vec2::new(-s, c));
+                    let scale = Mat2::from_diagonal(Vec2::from(t.scale()));
+                    Affine2::from_mat2_translation(rotation * scale, Vec2::from(t.offset()))
+                });
+                Some(TextureRef {
+                    texture: slot,
+                    wrap_s: wrap(sampler.wrap_s()),
+                    wrap_t: wrap(sampler.wrap_t()),
+                    transform,
+                })
+            }
+        };
+        let alpha = match m.alpha_mode() {
+            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            gltf::material::AlphaMode::Mask => AlphaMode::Mask { cutoff: m.alpha_cutoff().unwrap_or(0.5) },
+            gltf::material::AlphaMode::Blend => AlphaMode::Mask { cutoff: 0.5 },
+        };
+        geometry.materials.push(Material { base_color, base_color_texture, alpha });
+    }
+    // The glTF default material (white, opaque) for primitives without one.
+    geometry.materials.push(Material::diffuse([1.0, 1.0, 1.0]));
+    let default_material = geometry.materials.len() as u32 - 1;
+
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
+    let mut camera = None;
+    // Depth-first over the node tree; an explicit stack so deep hierarchies cannot overflow.
+    let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, model_from_file, 0)).collect();
+    stack.reverse();
+    while let Some((node, parent, depth)) = stack.pop() {
+        if depth > 256 {
+            return Err(fail(
+                &format!("nodes[{}]", node.index()),
+                "node hierarchy deeper than 256 (a cycle?)".into(),
+            ));
+        }
+        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(fail(&format!("nodes[{}]", node.index()), "transform is not finite".into()));
+        }
+        if camera.is_none()
+            && let Some(cam) = node.camera()
+            && let gltf::camera::Projection::Perspective(p) = cam.projection()
+        {
+            camera = Some(GltfCamera { world, yfov: p.yfov() as f64 });
+        }
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                load_primitive(
+                    path,
+                    &mesh,
+                    &prim,
+                    world,
+                    material_base,
+                    default_material,
+                    &buffers,
+                    geometry,
+                )?;
+            }
+        }
+        let children: Vec<_> = node.children().collect();
+        for child in children.into_iter().rev() {
+            stack.push((child, world, depth + 1));
+        }
+    }
+    Ok(camera)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn load_primitive(
+    path: &Path,
+    mesh: &gltf::Mesh,
+    prim: &gltf::Primitive,
+    world: DMat4,
+    material_base: u32,
+    default_material: u32,
+    buffers: &[gltf::buffer::Data],
+    geometry: &mut Geometry,
+) -> Result<(), SceneError> {
+    let key = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
+    let fail = |k: &str, msg: String| SceneError::new(path, format!("{key}{k}"), msg);
+    let mode = prim.mode();
+    if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+        return Ok(()); // points and lines have no area: nothing to render or shadow
+    }
+    let reader = prim.reader(|b| Some(&buffers[b.index()]));
+    let positions: Vec<[f32; 3]> = match reader.read_positions() {
+        Some(p) => p.collect(),
+        None => return Err(fail(".attributes.POSITION", "missing".into())),
+    };
+    if let Some(i) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(fail(".attributes.POSITION", format!("vertex {i} is not finite: {:?}", positions[i])));
+    }
+    let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(|n| n.collect());
+    let material = prim.material();
+    let mat_id = match material.index() {
+        Some(i) => material_base + i as u32,
+        None => default_material,
+    };
+    let uv_set = material
+        .pbr_metallic_roughness()
+        .base_color_texture()
+        .map(|info| info.texture_transform().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord()))
+        .unwrap_or(0);
+    let uvs: Option<Vec<[f32; 2]>> = reader.read_tex_coords(uv_set).map(|t| t.into_f32().collect());
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..positions.len() as u32).collect(),
+    };
+    if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+        return Err(fail(".indices", format!("index {bad} out of range ({} vertices)", positions.len())));
+    }
+    let corners: Vec<[u32; 3]> = match mode {
+        Mode::Triangles => indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [indices[i], indices[i + 1], indices[i + 2]]
+                } else {
+                    [indices[i + 1], indices[i], indices[i + 2]]
+                }
+            })
+            .collect(),
+        _ => (1..indices.len().saturating_sub(1)).map(|i| [indices[0], indices[i], indices[i + 1]]).collect(),
+    };
+
+    let normal_from_file = DMat3::from_mat4(world).inverse().transpose();
+    let mirrored = world.determinant() < 0.0;
+    let emissive = Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0);
+    let is_emitter =
+        emissive.max_element() > 0.0 && material.emissive_texture().is_none() && emissive.is_finite();
+    let mut emitter_tris = Vec::new();
+    for c in corners {
+        let mut c = c;
+        if mirrored {
+            c.swap(1, 2); // keep the winding (and so the front face) under a mirroring transform
+        }
+        let p = c.map(|i| world.transform_point3(DVec3::from(positions[i as usize].map(f64::from))));
+        if (p[1] - p[0]).cross(p[2] - p[0]).length_squared() == 0.0 {
+            geometry.degenerate += 1;
+            continue;
+        }
+        let n = normals.as_ref().and_then(|ns| {
+            let n = c.map(|i| {
+                (normal_from_file * DVec3::from(ns[i as usize].map(f64::from))).normalize_or_zero().as_vec3()
+            });
+            n.iter().all(|v| v.is_finite() && v.length_squared() > 0.5).then_some(n)
+        });
+        let uv = match &uvs {
+            Some(t) => c.map(|i| Vec2::from(t[i as usize])),
+            None => [Vec2::ZERO; 3],
+        };
+        geometry.triangles.push(SourceTriangle { p, n, uv, material: mat_id });
+        if is_emitter {
+            emitter_tris.push(p);
+        }
+    }
+    if !emitter_tris.is_empty() {
+        geometry.emitters.push(EmitterCandidate {
+            triangles: emitter_tris,
+            radiance: emissive,
+            double_sided: material.double_sided(),
+        });
+    }
+    Ok(())
+}
+
+fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
+    match mode {
+        gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+        gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+    }
+}
+
+fn to_rgba8(data: &gltf::image::Data) -> Option<Texture> {
+    use gltf::image::Format;
+    let px = &data.pixels;
+    let (channels, bytes) = match data.format {
+        Format::R8 => (1, 1),
+        Format::R8G8 => (2, 1),
+        Format::R8G8B8 => (3, 1),
+        Format::R8G8B8A8 => (4, 1),
+        Format::R16 => (1, 2),
+        Format::R16G16 => (2, 2),
+        Format::R16G16B16 => (3, 2),
+        Format::R16G16B16A16 => (4, 2),
+        _ => return None,
+    };
+    let stride = channels * bytes;
+    let count = (data.width * data.height) as usize;
+    if px.len() < count * stride {
+        return None;
+    }
+    // 16-bit channels are little-endian in gltf's decoded data: keep the high byte.
+    let get = |i: usize, ch: usize| px[i * stride + ch * bytes + bytes - 1];
+    let rgba8 = (0..count)
+        .map(|i| match channels {
+            1 => {
+                let g = get(i, 0);
+                [g, g, g, 255]
+            }
+            2 => {
+                let g = get(i, 0);
+                [g, g, g, get(i, 1)]
+            }
+            3 => [get(i, 0), get(i, 1), get(i, 2), 255],
+            _ => [get(i, 0), get(i, 1), get(i, 2), get(i, 3)],
+        })
+        .collect();
+    Some(Texture { width: data.width, height: data.height, rgba8 })
+}

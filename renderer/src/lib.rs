@@ -1,0 +1,28 @@
+//! penumbra's renderer: glTF scenes on an obvhs BVH, Lambertian surfaces lit by rectangular
+//! area lights, and the [`LightShadowing`] plugin interface with its built-in methods
+//! ([`Traced`], the ground truth, and [`Unshadowed`]).
+//!
+//! Layering: this crate knows no plugin beyond its own two; `shadow_plugin` depends on it,
+//! and the `penumbra` CLI is the one place that knows every method.
+
+pub mod camera;
+pub mod config;
+pub mod error;
+pub mod gltf_load;
+pub mod light;
+pub mod material;
+pub mod output;
+pub mod render;
+pub mod sampling;
+pub mod scene;
+pub mod shadowing;
+
+pub use camera::Camera;
+pub use config::SceneFile;
+pub use error::SceneError;
+pub use light::RectLight;
+pub use render::{Frame, RenderSettings, render};
+pub use scene::{RayEpsilon, Scene, SurfaceHit};
+pub use shadowing::{
+    LightShadowing, PrepareContext, ShadowError, ShadowQuery, Traced, TracedParams, Unshadowed, VisiblePoint,
+};

@@ -1,0 +1,161 @@
+//! The frame: a primary pass (closest hits for every pixel sample), `prepare` per light, then
+//! a shading pass (irradiance times visibility). Rayon over rows of pixels; every random
+//! number is keyed by (seed, pixel, sample, light), so the bytes do not depend on the number
+//! of threads.
+
+use crate::sampling::{Rng, strata, stream_seed};
+use crate::scene::{Scene, SurfaceHit};
+use crate::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery, VisiblePoint};
+use glam::{Vec3, Vec3A};
+use obvhs::ray::Ray;
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::{Duration, Instant};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// 1 = one ray through each pixel centre; more = jittered stratified samples, box filter.
+    pub spp: u32,
+    pub seed: u64,
+}
+
+/// What a frame produces.
+#[derive(Debug, Clone)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    /// Linear radiance, row-major, top row first.
+    pub radiance: Vec<Vec3>,
+    /// Per light k: visibility at each pixel's primary hit in [0, 1] (the mean over the
+    /// pixel's samples that hit; 0 where the light is below the horizon or faces away), or
+    /// -1 where no primary ray hits anything.
+    pub visibility: Vec<Vec<f32>>,
+    pub shadow_prepare: Duration,
+    /// Wall time of the pixel loop: primary rays, shading and shadow queries.
+    pub render: Duration,
+    pub counters: BTreeMap<String, u64>,
+}
+
+/// Stream tags, so different uses of one pixel's seed never share random numbers.
+const TAG_PRIMARY: u64 = 1;
+const TAG_SHADOW: u64 = 2;
+
+/// Renders `scene` with one shadow method per light (`methods[k]` shadows `scene.lights[k]`).
+/// `progress` is called with the number of rows finished, from any thread.
+///
+/// # Errors
+/// The first error a method's `prepare` reports.
+pub fn render(
+    scene: &Scene,
+    methods: &mut [Box<dyn LightShadowing>],
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Frame, ShadowError> {
+    assert_eq!(methods.len(), scene.lights.len(), "one shadow method per light");
+    let RenderSettings { width, height, spp, seed } = *settings;
+    let (w, h, spp_us) = (width as usize, height as usize, spp as usize);
+
+    // Primary pass.
+    let t_primary = Instant::now();
+    let mut hits: Vec<Option<SurfaceHit>> = vec![None; w * h * spp_us];
+    let (sx, sy) = strata(spp);
+    hits.par_chunks_mut(w * spp_us).enumerate().for_each(|(y, row)| {
+        for x in 0..w {
+            let pixel_index = (y * w + x) as u64;
+            let mut rng = Rng::new(stream_seed(&[seed, pixel_index, TAG_PRIMARY]));
+            for s in 0..spp_us {
+                let (fx, fy) = if spp == 1 {
+                    (0.5, 0.5)
+                } else {
+                    let (i, j) = ((s as u32 % sx) as f32, (s as u32 / sx) as f32);
+                    ((i + rng.next_f32()) / sx as f32, (j + rng.next_f32()) / sy as f32)
+                };
+                let d = scene.camera.ray_direction(x as f32 + fx, y as f32 + fy, width, height).normalize();
+                let ray = Ray::new(Vec3A::from(scene.camera.position), Vec3A::from(d), 0.0, f32::INFINITY);
+                row[x * spp_us + s] = scene.intersect(ray);
+            }
+        }
+    });
+    let primary_time = t_primary.elapsed();
+
+    // Prepare every light's method with what the camera sees.
+    let t_prepare = Instant::now();
+    let visible: Vec<VisiblePoint> = hits
+        .iter()
+        .flatten()
+        .map(|hit| VisiblePoint { p: hit.p, n_geom: hit.n_geom, n_shading: hit.n_shading })
+        .collect();
+    for (k, method) in methods.iter_mut().enumerate() {
+        let ctx = PrepareContext { scene, light: &scene.lights[k], light_index: k, visible: &visible, seed };
+        method.prepare(&ctx)?;
+    }
+    drop(visible);
+    let shadow_prepare = t_prepare.elapsed();
+
+    // Shading pass.
+    let t_shade = Instant::now();
+    let lights = scene.lights.len();
+    let mut radiance = vec![Vec3::ZERO; w * h];
+    let mut visibility = vec![0.0f32; w * h * lights];
+    let shading_points = AtomicU64::new(0);
+    let shadow_queries = AtomicU64::new(0);
+    let methods: &[Box<dyn LightShadowing>] = methods;
+    radiance.par_chunks_mut(w).zip(visibility.par_chunks_mut(w * lights.max(1))).enumerate().for_each(
+        |(y, (rad_row, vis_row))| {
+            let (mut points, mut queries) = (0u64, 0u64);
+            for x in 0..w {
+                let pixel_index = (y * w + x) as u64;
+                let mut sum = Vec3::ZERO;
+                let mut hit_count = 0u32;
+                let vis_px = &mut vis_row[x * lights..(x + 1) * lights];
+                vis_px.fill(0.0);
+                for s in 0..spp_us {
+                    let Some(hit) = &hits[(y * w + x) * spp_us + s] else { continue };
+                    hit_count += 1;
+                    points += 1;
+                    let albedo = scene.albedo(hit);
+                    for (k, light) in scene.lights.iter().enumerate() {
+                        let e = light.irradiance_factor(hit.p, hit.n_shading);
+                        if e <= 0.0 {
+                            continue; // no light reaches: skip the shadow query
+                        }
+                        let q = ShadowQuery {
+                            p: hit.p,
+                            n_geom: hit.n_geom,
+                            n_shading: hit.n_shading,
+                            pixel: [x as u32, y as u32],
+                            seed: stream_seed(&[seed, pixel_index, s as u64, k as u64, TAG_SHADOW]),
+                        };
+                        let v = methods[k].visibility(scene, &q);
+                        debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", methods[k].name());
+                        queries += 1;
+                        vis_px[k] += v;
+                        sum += albedo * light.radiance * (e * v);
+                    }
+                }
+                rad_row[x] = sum * (std::f32::consts::FRAC_1_PI / spp as f32);
+                for v in vis_px.iter_mut() {
+                    *v = if hit_count == 0 { -1.0 } else { *v / hit_count as f32 };
+                }
+            }
+            shading_points.fetch_add(points, Ordering::Relaxed);
+            shadow_queries.fetch_add(queries, Ordering::Relaxed);
+            progress(1);
+        },
+    );
+    let render = primary_time + t_shade.elapsed();
+
+    let mut counters = BTreeMap::new();
+    counters.insert("shading_points".to_string(), shading_points.into_inner());
+    counters.insert("shadow_queries".to_string(), shadow_queries.into_inner());
+    for m in methods {
+        for (name, value) in m.counters() {
+            *counters.entry(name.to_string()).or_insert(0) += value;
+        }
+    }
+    let visibility = (0..lights).map(|k| (0..w * h).map(|i| visibility[i * lights + k]).collect()).collect();
+    Ok(Frame { width, height, radiance, visibility, shadow_prepare, render, counters })
+}

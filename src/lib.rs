@@ -1,0 +1,200 @@
+//! The `penumbra` command line: the composition root, the one place that knows every shadow
+//! method and maps the scene file's `[shadows]` table to plugins.
+
+pub mod config;
+pub mod methods;
+pub mod report;
+
+use crate::config::{MethodName, ShadowsConfig};
+use crate::report::{RunReport, Timings};
+use renderer::output::StagedFiles;
+use renderer::{RenderSettings, Scene, SceneError, SceneFile, render};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The default scene, embedded so that `penumbra` with no arguments works anywhere.
+pub const DEFAULT_SCENE: &str = include_str!("../scenes/default.toml");
+/// The name the default scene's errors and outputs go by.
+pub const DEFAULT_SCENE_NAME: &str = "scenes/default.toml";
+
+/// `penumbra render` options (the contract's command line).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct RenderArgs {
+    /// Scene file (TOML). Without one, the embedded default scene.
+    pub scene: Option<PathBuf>,
+    /// Shadow method; overrides `[shadows].method`.
+    #[arg(long, value_enum)]
+    pub shadows: Option<MethodName>,
+    /// Light samples per shading point; overrides `[shadows].samples`.
+    #[arg(long)]
+    pub samples: Option<u32>,
+    #[arg(long)]
+    pub width: Option<u32>,
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Primary samples per pixel (1 = the pixel centre).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Output PNG; the EXR and JSON report go beside it. Default: out/<scene-stem>.png.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Also write PATH.visibility.<k>.exr per light k.
+    #[arg(long)]
+    pub aov: bool,
+    /// Worker threads (default: all cores). The output bytes do not depend on it.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub threads: Option<u32>,
+    /// Seed of every random stream.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// No progress bar and no summary on stdout.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// What a finished render reports back.
+#[derive(Debug, Clone)]
+pub struct RenderOutcome {
+    pub report: RunReport,
+    pub png: PathBuf,
+}
+
+/// An error for the CLI to print on one line (exit status 2).
+pub type CliError = SceneError;
+
+/// Loads, renders and writes everything `args` asks for. Nothing is written unless all of
+/// it succeeds.
+pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
+    let t_total = Instant::now();
+    let (scene_path, file) = match &args.scene {
+        Some(p) => (p.clone(), SceneFile::load(p)?),
+        None => {
+            let p = PathBuf::from(DEFAULT_SCENE_NAME);
+            let f = SceneFile::parse(DEFAULT_SCENE, &p)?;
+            (p, f)
+        }
+    };
+    let mut shadows = ShadowsConfig::from_table(&file.shadows, &scene_path)?;
+    if let Some(m) = args.shadows {
+        shadows.method = m;
+    }
+    if let Some(n) = args.samples {
+        shadows.samples = n;
+        shadows.validate(&scene_path, "--samples")?;
+    }
+    let width = args.width.unwrap_or(file.image.width);
+    let height = args.height.unwrap_or(file.image.height);
+    let spp = args.spp.unwrap_or(file.image.spp);
+    let limit = renderer::config::MAX_IMAGE_SIDE;
+    for (flag, v) in [("--width", width), ("--height", height)] {
+        if v == 0 || v > limit {
+            return Err(SceneError::new(&scene_path, flag, format!("must be in 1..={limit}, got {v}")));
+        }
+    }
+    if spp == 0 || spp > renderer::config::MAX_SPP {
+        return Err(SceneError::new(
+            &scene_path,
+            "--spp",
+            format!("must be in 1..={}", renderer::config::MAX_SPP),
+        ));
+    }
+    let png = match &args.out {
+        Some(p) => p.clone(),
+        None => {
+            let stem =
+                scene_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or("render".into());
+            PathBuf::from("out").join(format!("{stem}.png"))
+        }
+    };
+    if png.extension().and_then(|e| e.to_str()) != Some("png") {
+        return Err(SceneError::new(&png, "--out", "must name a .png file"));
+    }
+
+    let threads = match args.threads {
+        Some(n) => n as usize,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| SceneError::new(&scene_path, "--threads", e.to_string()))?;
+
+    pool.install(|| {
+        let scene = Scene::load(&file, &scene_path)?;
+        let mut methods: Vec<_> = scene.lights.iter().map(|_| methods::build_shadowing(&shadows)).collect();
+        let settings = RenderSettings { width, height, spp, seed: args.seed };
+        let bar = progress_bar(height as u64, args.quiet);
+        let frame = render(&scene, &mut methods, &settings, &|n| bar.inc(n))
+            .map_err(|e| SceneError::new(&scene_path, "shadows", e.to_string()))?;
+        bar.finish_and_clear();
+
+        // Outputs: all staged, then committed together.
+        if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| SceneError::new(dir, "--out", format!("cannot create the folder: {e}")))?;
+        }
+        let io = |e: String| SceneError::new(&png, "--out", e);
+        let mut staged = StagedFiles::default();
+        let mut outputs = vec![png.clone()];
+        staged.png(&png, width, height, &frame.radiance).map_err(io)?;
+        let exr = png.with_extension("exr");
+        staged.exr(&exr, width, height, &frame.radiance).map_err(io)?;
+        outputs.push(exr);
+        if args.aov {
+            for (k, vis) in frame.visibility.iter().enumerate() {
+                let path = png.with_extension(format!("visibility.{k}.exr"));
+                let rgb: Vec<glam::Vec3> = vis.iter().map(|&v| glam::Vec3::splat(v)).collect();
+                staged.exr(&path, width, height, &rgb).map_err(io)?;
+                outputs.push(path);
+            }
+        }
+        let json_path = png.with_extension("json");
+        outputs.push(json_path.clone());
+        let report = RunReport {
+            scene: scene_path.display().to_string(),
+            method: shadows.method.as_str().to_string(),
+            samples: shadows.samples,
+            width,
+            height,
+            spp,
+            threads,
+            seed: args.seed,
+            lights: scene.lights.len(),
+            triangles: scene.stats.triangles,
+            timings_s: Timings {
+                load: scene.stats.load.as_secs_f64(),
+                bvh: scene.stats.bvh.as_secs_f64(),
+                shadow_prepare: frame.shadow_prepare.as_secs_f64(),
+                render: frame.render.as_secs_f64(),
+                total: t_total.elapsed().as_secs_f64(),
+            },
+            counters: frame.counters.clone(),
+            outputs: outputs.iter().map(|p| p.display().to_string()).collect(),
+        };
+        let json = serde_json::to_vec_pretty(&report).expect("the report serialises");
+        staged.bytes(&json_path, &json).map_err(io)?;
+        staged.commit().map_err(io)?;
+        Ok(RenderOutcome { report, png: png.clone() })
+    })
+}
+
+fn progress_bar(rows: u64, quiet: bool) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if quiet || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(rows);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} rendering [{bar:40}] {pos}/{len} rows, {elapsed} (eta {eta})",
+        )
+        .expect("a valid template")
+        .progress_chars("=> "),
+    );
+    bar
+}
+
+/// The resolved path of a scene file (for tests and tools).
+pub fn scene_dir(scene: &Path) -> PathBuf {
+    scene.parent().map(Path::to_path_buf).unwrap_or_default()
+}

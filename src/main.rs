@@ -1,0 +1,52 @@
+//! `penumbra`: render a scene (or, with no arguments, the embedded default scene).
+
+use clap::{Parser, Subcommand};
+use penumbra::{RenderArgs, run_render};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "penumbra",
+    version,
+    about = "Soft shadows from rectangular area lights, with pluggable shadow methods"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render a scene file to PNG + EXR + a JSON run report.
+    Render(RenderArgs),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let args = match cli.command {
+        Some(Command::Render(a)) => a,
+        None => RenderArgs::default(),
+    };
+    match run_render(&args) {
+        Ok(outcome) => {
+            if !args.quiet {
+                let r = &outcome.report;
+                let t = &r.timings_s;
+                println!(
+                    "{}: {} {}x{} spp {} ({} samples), {} triangles, {} light(s), {} threads",
+                    r.scene, r.method, r.width, r.height, r.spp, r.samples, r.triangles, r.lights, r.threads
+                );
+                println!(
+                    "time: load {:.3}s, bvh {:.3}s, shadow_prepare {:.3}s, render {:.3}s, total {:.3}s",
+                    t.load, t.bvh, t.shadow_prepare, t.render, t.total
+                );
+                println!("wrote {}", r.outputs.join(", "));
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
