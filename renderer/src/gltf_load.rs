@@ -5,6 +5,8 @@
 use crate::error::SceneError;
 use crate::material::{AlphaMode, Material, Texture, TextureRef, Wrap};
 use glam::{Affine2, DMat3, DMat4, DVec3, Mat2, Vec2, Vec3, Vec4};
+use gltf::Semantic;
+use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use std::collections::HashMap;
 use std::path::Path;
@@ -186,15 +188,6 @@ fn load_primitive(
     if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
         return Ok(()); // points and lines have no area: nothing to render or shadow
     }
-    let reader = prim.reader(|b| Some(&buffers[b.index()]));
-    let positions: Vec<[f32; 3]> = match reader.read_positions() {
-        Some(p) => p.collect(),
-        None => return Err(fail(".attributes.POSITION", "missing".into())),
-    };
-    if let Some(i) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
-        return Err(fail(".attributes.POSITION", format!("vertex {i} is not finite: {:?}", positions[i])));
-    }
-    let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(|n| n.collect());
     let material = prim.material();
     let mat_id = match material.index() {
         Some(i) => material_base + i as u32,
@@ -205,10 +198,78 @@ fn load_primitive(
         .base_color_texture()
         .map(|info| info.texture_transform().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord()))
         .unwrap_or(0);
-    let uvs: Option<Vec<[f32; 2]>> = reader.read_tex_coords(uv_set).map(|t| t.into_f32().collect());
-    let indices: Vec<u32> = match reader.read_indices() {
-        Some(i) => i.into_u32().collect(),
-        None => (0..positions.len() as u32).collect(),
+
+    // gltf's readers trust the accessors, and nothing validates these properties before
+    // here: an empty accessor overflows `count - 1` (a panic in debug builds), an index
+    // component type other than u8/u16/u32 hits `unreachable!`, a wrong element type is
+    // read as garbage, and data outside its buffer view reads as "no attribute".
+    let accessors: [(String, Option<gltf::Accessor>, Dimensions, &[DataType]); 4] = [
+        (".attributes.POSITION".into(), prim.get(&Semantic::Positions), Dimensions::Vec3, &[DataType::F32]),
+        (".attributes.NORMAL".into(), prim.get(&Semantic::Normals), Dimensions::Vec3, &[DataType::F32]),
+        (
+            format!(".attributes.TEXCOORD_{uv_set}"),
+            prim.get(&Semantic::TexCoords(uv_set)),
+            Dimensions::Vec2,
+            &[DataType::F32, DataType::U8, DataType::U16],
+        ),
+        (
+            ".indices".into(),
+            prim.indices(),
+            Dimensions::Scalar,
+            &[DataType::U8, DataType::U16, DataType::U32],
+        ),
+    ];
+    for (k, accessor, dimensions, types) in &accessors {
+        if let Some(a) = accessor {
+            check_accessor(a, *dimensions, types).map_err(|msg| fail(k, msg))?;
+        }
+    }
+    let unreadable = |k: &str, a: &Option<gltf::Accessor>| match a {
+        Some(a) => fail(
+            k,
+            format!("accessors[{}] lies outside its buffer view, or the view outside its buffer", a.index()),
+        ),
+        None => fail(k, "missing".into()),
+    };
+    let [(pos_key, pos_acc, ..), (n_key, n_acc, ..), (uv_key, uv_acc, ..), (i_key, i_acc, ..)] = &accessors;
+
+    let reader = prim.reader(|b| Some(&buffers[b.index()]));
+    let positions: Vec<[f32; 3]> = match reader.read_positions() {
+        Some(p) => p.collect(),
+        None => return Err(unreadable(pos_key, pos_acc)),
+    };
+    if let Some(i) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(fail(".attributes.POSITION", format!("vertex {i} is not finite: {:?}", positions[i])));
+    }
+    // Every attribute must have one element per vertex (the spec requires equal counts;
+    // nothing validates it before here), or indexing them by vertex would panic.
+    let same_count = |k: &str, len: usize| {
+        if len == positions.len() {
+            Ok(())
+        } else {
+            Err(fail(k, format!("{len} elements for {} vertices (POSITION)", positions.len())))
+        }
+    };
+    let normals: Option<Vec<[f32; 3]>> = match (reader.read_normals(), n_acc) {
+        (Some(n), _) => Some(n.collect()),
+        (None, Some(_)) => return Err(unreadable(n_key, n_acc)),
+        (None, None) => None,
+    };
+    if let Some(n) = &normals {
+        same_count(n_key, n.len())?;
+    }
+    let uvs: Option<Vec<[f32; 2]>> = match (reader.read_tex_coords(uv_set), uv_acc) {
+        (Some(t), _) => Some(t.into_f32().collect()),
+        (None, Some(_)) => return Err(unreadable(uv_key, uv_acc)),
+        (None, None) => None,
+    };
+    if let Some(t) = &uvs {
+        same_count(uv_key, t.len())?;
+    }
+    let indices: Vec<u32> = match (reader.read_indices(), i_acc) {
+        (Some(i), _) => i.into_u32().collect(),
+        (None, Some(_)) => return Err(unreadable(i_key, i_acc)),
+        (None, None) => (0..positions.len() as u32).collect(),
     };
     if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
         return Err(fail(".indices", format!("index {bad} out of range ({} vertices)", positions.len())));
@@ -264,6 +325,25 @@ fn load_primitive(
             radiance: emissive,
             double_sided: material.double_sided(),
         });
+    }
+    Ok(())
+}
+
+/// Checks what gltf's accessor readers assume: at least one element (also in a sparse
+/// substitution) and the element type the reader expects.
+fn check_accessor(a: &gltf::Accessor, dimensions: Dimensions, types: &[DataType]) -> Result<(), String> {
+    if a.count() == 0 || a.sparse().is_some_and(|s| s.count() == 0) {
+        return Err(format!("accessors[{}] is empty (count must be >= 1)", a.index()));
+    }
+    if a.dimensions() != dimensions || !types.contains(&a.data_type()) {
+        return Err(format!(
+            "accessors[{}] is {:?} of {:?}; expected {:?} of one of {:?}",
+            a.index(),
+            a.dimensions(),
+            a.data_type(),
+            dimensions,
+            types
+        ));
     }
     Ok(())
 }

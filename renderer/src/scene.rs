@@ -142,18 +142,7 @@ impl Scene {
             }
         }
         for q in &file.quad {
-            let (c, u, v) = (DVec3::from(q.center), DVec3::from(q.u), DVec3::from(q.v));
-            geometry.materials.push(Material::diffuse(q.color));
-            let material = geometry.materials.len() as u32 - 1;
-            let corner = |a: f64, b: f64| c + a * u + b * v;
-            let (p00, p10, p11, p01) =
-                (corner(-0.5, -0.5), corner(0.5, -0.5), corner(0.5, 0.5), corner(-0.5, 0.5));
-            for (p, uv) in [
-                ([p00, p10, p11], [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)]),
-                ([p00, p11, p01], [Vec2::new(0.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)]),
-            ] {
-                geometry.triangles.push(SourceTriangle { p, n: None, uv, material });
-            }
+            geometry.add_quad(DVec3::from(q.center), DVec3::from(q.u), DVec3::from(q.v), q.color);
         }
 
         // Bounds in f64 world space; the render space is centred on them.
@@ -432,6 +421,24 @@ impl Scene {
     /// Converts a render-space point back to world space.
     pub fn to_world(&self, p: Vec3) -> DVec3 {
         p.as_dvec3() + self.world_offset
+    }
+}
+
+impl Geometry {
+    /// Adds a rectangle (two triangles, corners `center +- u/2 +- v/2`, front face along
+    /// u x v) with its own diffuse material.
+    pub fn add_quad(&mut self, center: DVec3, u: DVec3, v: DVec3, color: [f32; 3]) {
+        self.materials.push(Material::diffuse(color));
+        let material = self.materials.len() as u32 - 1;
+        let corner = |a: f64, b: f64| center + a * u + b * v;
+        let (p00, p10, p11, p01) =
+            (corner(-0.5, -0.5), corner(0.5, -0.5), corner(0.5, 0.5), corner(-0.5, 0.5));
+        for (p, uv) in [
+            ([p00, p10, p11], [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)]),
+            ([p00, p11, p01], [Vec2::new(0.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)]),
+        ] {
+            self.triangles.push(SourceTriangle { p, n: None, uv, material });
+        }
     }
 }
 

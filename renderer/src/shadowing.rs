@@ -168,3 +168,111 @@ impl LightShadowing for Traced {
         ]
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Camera;
+    use crate::gltf_load::Geometry;
+    use glam::DVec3;
+    use std::time::Duration;
+
+    /// A scene of quads (center, u, v) in world = render space, with one light.
+    fn quads_scene(quads: &[([f64; 3], [f64; 3], [f64; 3])], light: RectLight) -> Scene {
+        let mut g = Geometry::default();
+        for (c, u, v) in quads {
+            g.add_quad(DVec3::from(*c), DVec3::from(*u), DVec3::from(*v), [0.5; 3]);
+        }
+        let camera = Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
+        Scene::build(g, vec![light], camera, DVec3::ZERO, Duration::ZERO)
+    }
+
+    fn unit_light_at(height: f32) -> RectLight {
+        // 1 x 1, centred above the origin, facing down (X x Z = -Y).
+        RectLight::new(Vec3::new(0.0, height, 0.0), Vec3::X, Vec3::Z, Vec3::ONE)
+    }
+
+    fn traced(scene: &Scene, samples: u32) -> Traced {
+        let mut t = Traced::new(TracedParams { samples });
+        let ctx = PrepareContext { scene, light: &scene.lights[0], light_index: 0, visible: &[], seed: 0 };
+        t.prepare(&ctx).unwrap();
+        t
+    }
+
+    fn query(p: Vec3, seed: u64) -> ShadowQuery {
+        ShadowQuery { p, n_geom: Vec3::Y, n_shading: Vec3::Y, pixel: [0, 0], seed }
+    }
+
+    const FLOOR: ([f64; 3], [f64; 3], [f64; 3]) = ([0.0, 0.0, 0.0], [20.0, 0.0, 0.0], [0.0, 0.0, -20.0]);
+
+    #[test]
+    fn large_occluder_gives_zero_and_open_sky_gives_one() {
+        let light = unit_light_at(2.0);
+        let roof = ([0.0, 1.0, 0.0], [100.0, 0.0, 0.0], [0.0, 0.0, 100.0]);
+        let covered = quads_scene(&[FLOOR, roof], light);
+        let open = quads_scene(&[FLOOR], light);
+        let (tc, to) = (traced(&covered, 256), traced(&open, 256));
+        for (i, p) in
+            [Vec3::ZERO, Vec3::new(0.7, 0.0, -0.3), Vec3::new(-2.0, 0.0, 1.5)].into_iter().enumerate()
+        {
+            assert_eq!(tc.visibility(&covered, &query(p, i as u64)), 0.0, "covered {p}");
+            assert_eq!(to.visibility(&open, &query(p, i as u64)), 1.0, "open {p}");
+        }
+        // The counters saw every ray above the horizon: 3 points x 256 samples each.
+        let counters: std::collections::HashMap<_, _> = tc.counters().into_iter().collect();
+        assert_eq!(counters["shadow_rays"], 3 * 256);
+        assert_eq!(counters["shadow_rays_occluded"], 3 * 256);
+    }
+
+    #[test]
+    fn half_plane_visibility_converges_to_the_analytic_fraction() {
+        // Occluder: the half-plane x < 0 at y = 1. Light: 1 x 1 at y = 2, centred on x = 0.
+        // From P = (x0, 0, 0) the edge projects onto the light at x = -x0, so the visible
+        // fraction is clamp(0.5 + x0, 0, 1).
+        let light = unit_light_at(2.0);
+        let half_plane = ([-25.0, 1.0, 0.0], [50.0, 0.0, 0.0], [0.0, 0.0, 50.0]);
+        let scene = quads_scene(&[FLOOR, half_plane], light);
+        let seeds = 200u64;
+        for x0 in [-0.31f32, 0.13, 0.37] {
+            let exact = (0.5 + x0 as f64).clamp(0.0, 1.0);
+            let mut rmse_by_n = Vec::new();
+            for n in [4u32, 16, 64, 256, 1024] {
+                let t = traced(&scene, n);
+                let estimates: Vec<f64> = (0..seeds)
+                    .map(|s| t.visibility(&scene, &query(Vec3::new(x0, 0.0, 0.0), s)) as f64)
+                    .collect();
+                let mean = estimates.iter().sum::<f64>() / seeds as f64;
+                let var = estimates.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (seeds - 1) as f64;
+                let standard_error = (var / seeds as f64).sqrt();
+                // Unbiased: the mean of 200 estimates is within 3 standard errors (plus
+                // f32 rounding) of the exact fraction.
+                assert!(
+                    (mean - exact).abs() <= 3.0 * standard_error + 1e-6,
+                    "x0 {x0} N {n}: mean {mean} exact {exact} se {standard_error}"
+                );
+                let rmse = (estimates.iter().map(|e| (e - exact).powi(2)).sum::<f64>() / seeds as f64).sqrt();
+                rmse_by_n.push(rmse);
+            }
+            // And each estimate converges: stratified sampling of a straight edge has error
+            // ~ N^-3/4, so from N = 16 to 1024 the RMS error falls by ~22x; require 4x.
+            assert!(rmse_by_n[4] * 4.0 < rmse_by_n[1], "x0 {x0}: rmse {rmse_by_n:?}");
+        }
+    }
+
+    #[test]
+    fn samples_below_the_horizon_are_not_counted() {
+        // A wall point whose normal is +X sees only the half of the light with x > 0; with
+        // nothing in the way that half is fully visible: V = 1 exactly.
+        let light = unit_light_at(2.0);
+        let scene = quads_scene(&[FLOOR], light);
+        let t = traced(&scene, 64);
+        let q = ShadowQuery {
+            p: Vec3::new(0.0, 1.0, 0.0),
+            n_geom: Vec3::X,
+            n_shading: Vec3::X,
+            pixel: [0, 0],
+            seed: 3,
+        };
+        assert_eq!(t.visibility(&scene, &q), 1.0);
+    }
+}

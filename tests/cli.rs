@@ -1,0 +1,190 @@
+//! The command line as a user meets it: outputs, determinism across thread counts, and bad
+//! input (one line naming file and key, exit status 2, nothing written).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn penumbra(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_penumbra")).args(args).current_dir(cwd).output().expect("penumbra runs")
+}
+
+/// A fresh, empty folder for one test.
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("penumbra-cli-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+const SCENE: &str = r#"
+[camera]
+position = [0.0, 2.0, 3.0]
+look_at = [0.0, 0.0, 0.0]
+
+[image]
+width = 48
+height = 32
+
+[[quad]]
+center = [0.0, 0.0, 0.0]
+u = [2.0, 0.0, 0.0]
+v = [0.0, 0.0, -2.0]
+
+[[quad]]
+center = [0.0, 0.5, 0.0]
+u = [0.5, 0.0, 0.0]
+v = [0.0, 0.0, -0.5]
+
+[[light]]
+center = [0.2, 1.5, 0.1]
+u = [0.5, 0.0, 0.0]
+v = [0.0, 0.0, 0.5]
+radiance = [4.0, 4.0, 4.0]
+
+[shadows]
+method = "traced"
+samples = 16
+"#;
+
+#[test]
+fn same_bytes_with_one_and_two_threads() {
+    let dir = temp_dir("threads");
+    // A floor wide enough that every primary ray hits it.
+    let scene = SCENE
+        .replace("u = [2.0, 0.0, 0.0]\nv = [0.0, 0.0, -2.0]", "u = [40.0, 0.0, 0.0]\nv = [0.0, 0.0, -40.0]");
+    assert_ne!(scene, SCENE);
+    std::fs::write(dir.join("s.toml"), scene).unwrap();
+    for threads in ["1", "2"] {
+        let out = format!("t{threads}/img.png");
+        let o =
+            penumbra(&["render", "s.toml", "--threads", threads, "--aov", "--spp", "2", "--out", &out], &dir);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    for file in ["img.png", "img.exr", "img.visibility.0.exr"] {
+        let a = std::fs::read(dir.join("t1").join(file)).unwrap();
+        let b = std::fs::read(dir.join("t2").join(file)).unwrap();
+        assert!(a == b, "{file} differs between 1 and 2 threads");
+    }
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("t2/img.json")).unwrap()).unwrap();
+    assert_eq!(report["threads"], 2);
+    assert_eq!(report["method"], "traced");
+    assert_eq!(report["samples"], 16);
+    assert_eq!(report["spp"], 2);
+    for key in ["load", "bvh", "shadow_prepare", "render", "total"] {
+        assert!(report["timings_s"][key].as_f64().unwrap() >= 0.0, "{key}");
+    }
+    // 48 x 32 pixels x 2 samples, every primary ray hits the floor.
+    assert_eq!(report["counters"]["shading_points"], 48 * 32 * 2);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn visibility_aov_is_minus_one_on_misses_and_in_unit_range_on_hits() {
+    let dir = temp_dir("aov");
+    // Pull the camera back so the floor does not fill the frame.
+    std::fs::write(dir.join("s.toml"), SCENE.replace("[0.0, 2.0, 3.0]", "[0.0, 6.0, 9.0]")).unwrap();
+    let o = penumbra(&["render", "s.toml", "--aov", "--out", "a.png"], &dir);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let vis = image::open(dir.join("a.visibility.0.exr")).unwrap().into_rgb32f();
+    let (mut misses, mut hits, mut shadowed) = (0, 0, 0);
+    for p in vis.pixels() {
+        let [r, g, b] = p.0;
+        assert!(r == g && g == b);
+        if r == -1.0 {
+            misses += 1;
+        } else {
+            assert!((0.0..=1.0).contains(&r), "{r}");
+            hits += 1;
+            if r < 0.5 {
+                shadowed += 1;
+            }
+        }
+    }
+    // The top corners see the sky; the centre sees the floor and the card's shadow.
+    assert_eq!(vis.get_pixel(0, 0).0[0], -1.0);
+    assert!(misses > 0 && hits > 0 && shadowed > 0, "{misses} {hits} {shadowed}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Runs a failing render and checks the contract for bad input.
+fn assert_bad_input(dir: &Path, args: &[&str], must_name: &[&str]) {
+    let o = penumbra(args, dir);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {stderr}");
+    assert_eq!(stderr.trim_end().lines().count(), 1, "{args:?}: not one line: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    for needle in must_name {
+        assert!(stderr.contains(needle), "{args:?}: {stderr:?} does not name {needle:?}");
+    }
+    let written: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| !n.ends_with(".toml") && !n.ends_with(".gltf") && !n.ends_with(".bin"))
+        .collect();
+    assert!(written.is_empty(), "{args:?} left files behind: {written:?}");
+}
+
+#[test]
+fn bad_input_gets_one_line_naming_file_and_key_and_exit_2() {
+    let dir = temp_dir("bad");
+    let write = |name: &str, text: &str| std::fs::write(dir.join(name), text).unwrap();
+    let out = ["--out", "o.png"];
+    let run = |scene: &str| -> Vec<String> {
+        let mut v = vec!["render".to_string(), scene.to_string()];
+        v.extend(out.iter().map(|s| s.to_string()));
+        v
+    };
+    let check = |scene: &str, names: &[&str]| {
+        let args = run(scene);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        assert_bad_input(&dir, &args, names);
+    };
+
+    // A missing scene file.
+    check("nope.toml", &["nope.toml"]);
+    // An unknown key.
+    write("unknown.toml", &SCENE.replace("[image]", "[image]\nwidht = 3"));
+    check("unknown.toml", &["unknown.toml", "image.widht"]);
+    // A zero-area light.
+    write(
+        "zero.toml",
+        &SCENE
+            .replace("u = [0.5, 0.0, 0.0]\nv = [0.0, 0.0, 0.5]", "u = [0.5, 0.0, 0.0]\nv = [0.0, 0.0, 0.0]"),
+    );
+    check("zero.toml", &["zero.toml", "light[0].v"]);
+    // A broken TOML file: the byte offset.
+    write("broken.toml", "[camera\nposition = [");
+    check("broken.toml", &["broken.toml", "byte "]);
+    // A missing model file.
+    write("nomodel.toml", &format!("[[model]]\npath = \"missing.gltf\"\n{SCENE}"));
+    check("nomodel.toml", &["nomodel.toml", "model[0].path", "missing.gltf"]);
+    // A broken glTF (truncated JSON).
+    write("broken.gltf", "{\"asset\": {\"version\": \"2.0\"}, \"nodes\": [");
+    write("brokengltf.toml", &format!("[[model]]\npath = \"broken.gltf\"\n{SCENE}"));
+    check("brokengltf.toml", &["broken.gltf"]);
+    // A NaN vertex.
+    let mut bin = Vec::new();
+    for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, f32::NAN, 1.0, 0.0] {
+        bin.extend_from_slice(&v.to_le_bytes());
+    }
+    std::fs::write(dir.join("nan.bin"), &bin).unwrap();
+    write(
+        "nan.gltf",
+        r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"mesh":0}],
+"meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}],
+"accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+"bufferViews":[{"buffer":0,"byteLength":36}],"buffers":[{"uri":"nan.bin","byteLength":36}]}"#,
+    );
+    write("nan.toml", &format!("[[model]]\npath = \"nan.gltf\"\n{SCENE}"));
+    check("nan.toml", &["nan.gltf", "meshes[0].primitives[0].attributes.POSITION"]);
+    // Bad flags.
+    std::fs::write(dir.join("ok.toml"), SCENE).unwrap();
+    assert_bad_input(&dir, &["render", "ok.toml", "--out", "o.jpg"], &["o.jpg", "--out"]);
+    assert_bad_input(
+        &dir,
+        &["render", "ok.toml", "--samples", "0", "--out", "o.png"],
+        &["ok.toml", "--samples"],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,64 @@
+//! Every scene of ../shared/gltf loads and renders with the traced method (small images),
+//! and its pixels are sane: finite, non-negative radiance; visibility in [0, 1] or -1; some
+//! of the frame lit and some of it in shadow.
+
+use penumbra::{RenderArgs, run_render};
+use std::path::PathBuf;
+
+fn render_small(scene: &str) -> (Vec<f32>, Vec<f32>) {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let dir = std::env::temp_dir().join(format!("penumbra-shared-{}", std::process::id()));
+    let stem = scene.trim_end_matches(".toml");
+    let out = dir.join(format!("{stem}.png"));
+    let args = RenderArgs {
+        scene: Some(root.join("scenes/gltf").join(scene)),
+        samples: Some(16),
+        width: Some(64),
+        height: Some(48),
+        out: Some(out.clone()),
+        aov: true,
+        quiet: true,
+        ..Default::default()
+    };
+    let outcome = run_render(&args).unwrap_or_else(|e| panic!("{scene}: {e}"));
+    assert!(outcome.report.triangles > 0);
+    let radiance = image::open(&out).unwrap().into_rgb32f().into_raw();
+    let exr = image::open(out.with_extension("exr")).unwrap().into_rgb32f().into_raw();
+    assert_eq!(radiance.len(), exr.len());
+    let vis = image::open(out.with_extension("visibility.0.exr")).unwrap().into_rgb32f().into_raw();
+    for suffix in ["png", "exr", "json", "visibility.0.exr"] {
+        let _ = std::fs::remove_file(out.with_extension(suffix));
+    }
+    (exr, vis)
+}
+
+fn check(scene: &str) {
+    let (radiance, vis) = render_small(scene);
+    assert!(radiance.iter().all(|v| v.is_finite() && *v >= 0.0), "{scene}: bad radiance");
+    let hits: Vec<f32> = vis.iter().step_by(3).copied().filter(|&v| v != -1.0).collect();
+    assert!(hits.iter().all(|v| (0.0..=1.0).contains(v)), "{scene}: visibility out of range");
+    assert!(hits.len() > 64 * 48 / 10, "{scene}: only {} pixels hit anything", hits.len());
+    let lit = hits.iter().filter(|&&v| v > 0.9).count();
+    let shadowed = hits.iter().filter(|&&v| v < 0.5).count();
+    assert!(lit > 0 && shadowed > 0, "{scene}: {lit} lit and {shadowed} shadowed pixels");
+    assert!(radiance.iter().any(|&v| v > 0.0), "{scene}: black image");
+}
+
+macro_rules! scene_tests {
+    ($($name:ident => $file:literal),* $(,)?) => {
+        $( #[test] fn $name() { check($file); } )*
+    };
+}
+
+scene_tests! {
+    cornell_box => "cornell-box.toml",
+    flight_helmet => "flight-helmet.toml",
+    fox => "fox.toml",
+    glass_vase_flowers => "glass-vase-flowers.toml",
+    metal_rough_spheres => "metal-rough-spheres.toml",
+    monobloc_chair => "monobloc-chair.toml",
+    palm_tree => "palm-tree.toml",
+    sauerbraten_zdm2 => "sauerbraten-zdm2.toml",
+    sheen_chair_floor => "sheen-chair-floor.toml",
+    toy_car => "toy-car.toml",
+}
