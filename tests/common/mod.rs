@@ -1,0 +1,1 @@
+pub mod gltf_writer;
