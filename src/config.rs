@@ -4,6 +4,7 @@
 use renderer::SceneError;
 use renderer::config::deserialize_value;
 use serde::Deserialize;
+use shadow_plugin::{Blend, DepthMapParams, EdgeTableParams};
 use std::path::Path;
 
 /// Shadow methods, as the scene file and `--shadows` spell them.
@@ -16,6 +17,10 @@ pub enum MethodName {
     Traced,
     /// No shadows (V = 1): the cost floor.
     None,
+    /// Edge-table masks over a light-space depth map (Egan & Neulander 2004).
+    EdgeTable,
+    /// Each shadow ray marched through the same depth map (walls and floors).
+    DepthMarch,
 }
 
 impl MethodName {
@@ -23,6 +28,8 @@ impl MethodName {
         match self {
             MethodName::Traced => "traced",
             MethodName::None => "none",
+            MethodName::EdgeTable => "edge_table",
+            MethodName::DepthMarch => "depth_march",
         }
     }
 }
@@ -33,14 +40,119 @@ pub const DEFAULT_SAMPLES: u32 = 256;
 pub const MAX_SAMPLES: u32 = 65536;
 
 /// `[shadows]`.
-#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ShadowsConfig {
     #[serde(default)]
     pub method: MethodName,
-    /// Light samples per shading point.
+    /// Light samples per shading point (per mask for `edge_table`).
     #[serde(default = "default_samples")]
     pub samples: u32,
+    #[serde(default)]
+    pub edge_table: EdgeTableConfig,
+    #[serde(default)]
+    pub depth_march: DepthMapConfig,
+}
+
+/// Named edge-table presets (`shadow_plugin::EdgeTableParams`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Preset {
+    /// The 2004 sketch: 256^2 map, 4 x 4 x 1 masks, nearest mask.
+    Paper,
+    /// The default: 256^2 map, 4 x 4 x 2 masks, trilinear.
+    Balanced,
+    /// 512^2 map, 8 x 8 x 4 masks, trilinear.
+    Fine,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BlendName {
+    Nearest,
+    Trilinear,
+}
+
+/// `[shadows.edge_table]`: a preset, then any of its fields overridden.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EdgeTableConfig {
+    pub preset: Option<Preset>,
+    /// Depth-map pixels per side.
+    pub depth_map: Option<u32>,
+    /// Masks over (sub-pixel x, sub-pixel y, depth).
+    pub grid: Option<[u32; 3]>,
+    pub blend: Option<BlendName>,
+    /// Slope-scaled depth bias in depth-map pixels.
+    pub slope_bias: Option<f32>,
+}
+
+/// `[shadows.depth_march]`.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DepthMapConfig {
+    pub depth_map: Option<u32>,
+    pub slope_bias: Option<f32>,
+}
+
+/// Bounds checked at the boundary.
+pub const DEPTH_MAP_RANGE: std::ops::RangeInclusive<u32> = 4..=8192;
+pub const GRID_RANGE: std::ops::RangeInclusive<u32> = 1..=64;
+pub const MAX_MASKS: u32 = 4096;
+
+impl EdgeTableConfig {
+    pub fn params(&self) -> EdgeTableParams {
+        let mut p = match self.preset.unwrap_or(Preset::Balanced) {
+            Preset::Paper => EdgeTableParams::paper(),
+            Preset::Balanced => EdgeTableParams::balanced(),
+            Preset::Fine => EdgeTableParams::fine(),
+        };
+        if let Some(n) = self.depth_map {
+            p.depth_map.resolution = n;
+        }
+        if let Some(g) = self.grid {
+            p.grid = g;
+        }
+        if let Some(b) = self.blend {
+            p.blend = match b {
+                BlendName::Nearest => Blend::Nearest,
+                BlendName::Trilinear => Blend::Trilinear,
+            };
+        }
+        if let Some(b) = self.slope_bias {
+            p.depth_map.slope_bias = b;
+        }
+        p
+    }
+}
+
+impl DepthMapConfig {
+    pub fn params(&self) -> DepthMapParams {
+        let d = DepthMapParams::default();
+        DepthMapParams {
+            resolution: self.depth_map.unwrap_or(d.resolution),
+            slope_bias: self.slope_bias.unwrap_or(d.slope_bias),
+        }
+    }
+}
+
+fn check_depth_map(p: &DepthMapParams, file: &Path, table: &str) -> Result<(), SceneError> {
+    if !DEPTH_MAP_RANGE.contains(&p.resolution) {
+        return Err(SceneError::new(
+            file,
+            format!("{table}.depth_map"),
+            format!(
+                "must be in {}..={}, got {}",
+                DEPTH_MAP_RANGE.start(),
+                DEPTH_MAP_RANGE.end(),
+                p.resolution
+            ),
+        ));
+    }
+    if !(p.slope_bias.is_finite() && p.slope_bias >= 0.0) {
+        return Err(SceneError::new(file, format!("{table}.slope_bias"), "must be finite and >= 0"));
+    }
+    Ok(())
 }
 
 fn default_samples() -> u32 {
@@ -49,7 +161,12 @@ fn default_samples() -> u32 {
 
 impl Default for ShadowsConfig {
     fn default() -> Self {
-        Self { method: MethodName::default(), samples: DEFAULT_SAMPLES }
+        Self {
+            method: MethodName::default(),
+            samples: DEFAULT_SAMPLES,
+            edge_table: EdgeTableConfig::default(),
+            depth_march: DepthMapConfig::default(),
+        }
     }
 }
 
@@ -62,16 +179,30 @@ impl ShadowsConfig {
         Ok(config)
     }
 
-    /// Checks the sample count; `key` names where it came from (scene key or CLI flag).
-    pub fn validate(&self, file: &Path, key: &str) -> Result<(), SceneError> {
-        if self.samples == 0 || self.samples > MAX_SAMPLES {
+    /// Checks the whole configuration for the chosen method; `samples_key` names where the
+    /// sample count came from (the scene key or the CLI flag).
+    pub fn validate(&self, file: &Path, samples_key: &str) -> Result<(), SceneError> {
+        let max = match self.method {
+            MethodName::EdgeTable | MethodName::DepthMarch => shadow_plugin::bits::MAX_SAMPLES as u32,
+            _ => MAX_SAMPLES,
+        };
+        if self.samples == 0 || self.samples > max {
             return Err(SceneError::new(
                 file,
-                key,
-                format!("must be in 1..={MAX_SAMPLES}, got {}", self.samples),
+                samples_key,
+                format!("must be in 1..={max} for {}, got {}", self.method.as_str(), self.samples),
             ));
         }
-        Ok(())
+        let et = self.edge_table.params();
+        check_depth_map(&et.depth_map, file, "shadows.edge_table")?;
+        if !et.grid.iter().all(|g| GRID_RANGE.contains(g)) || et.grid.iter().product::<u32>() > MAX_MASKS {
+            return Err(SceneError::new(
+                file,
+                "shadows.edge_table.grid",
+                format!("each entry in 1..=64 and at most {MAX_MASKS} masks, got {:?}", et.grid),
+            ));
+        }
+        check_depth_map(&self.depth_march.params(), file, "shadows.depth_march")
     }
 }
 
@@ -87,7 +218,7 @@ mod tests {
     fn methods_and_samples_parse() {
         let p = Path::new("s.toml");
         let c = ShadowsConfig::from_table(&table("method = \"none\"\nsamples = 64"), p).unwrap();
-        assert_eq!(c, ShadowsConfig { method: MethodName::None, samples: 64 });
+        assert_eq!((c.method, c.samples), (MethodName::None, 64));
         assert_eq!(ShadowsConfig::from_table(&table(""), p).unwrap(), ShadowsConfig::default());
     }
 
@@ -100,5 +231,30 @@ mod tests {
         assert_eq!(e.key, "shadows.sample", "{e}");
         let e = ShadowsConfig::from_table(&table("samples = 0"), p).unwrap_err();
         assert_eq!(e.key, "shadows.samples", "{e}");
+        let e = ShadowsConfig::from_table(&table("method = \"edge_table\"\nsamples = 8192"), p).unwrap_err();
+        assert_eq!(e.key, "shadows.samples", "{e}");
+        let e = ShadowsConfig::from_table(&table("[edge_table]\ngrid = [4, 0, 1]"), p).unwrap_err();
+        assert_eq!(e.key, "shadows.edge_table.grid", "{e}");
+        let e = ShadowsConfig::from_table(&table("[edge_table]\ngird = [4, 4, 1]"), p).unwrap_err();
+        assert_eq!(e.key, "shadows.edge_table.gird", "{e}");
+        let e = ShadowsConfig::from_table(&table("[edge_table]\nblend = \"cubic\""), p).unwrap_err();
+        assert_eq!(e.key, "shadows.edge_table.blend", "{e}");
+        let e = ShadowsConfig::from_table(&table("[depth_march]\ndepth_map = 2"), p).unwrap_err();
+        assert_eq!(e.key, "shadows.depth_march.depth_map", "{e}");
+    }
+
+    #[test]
+    fn presets_and_overrides() {
+        let p = Path::new("s.toml");
+        let c = ShadowsConfig::from_table(
+            &table("method = \"edge_table\"\n[edge_table]\npreset = \"paper\"\ngrid = [2, 2, 1]"),
+            p,
+        )
+        .unwrap();
+        let params = c.edge_table.params();
+        assert_eq!(params.grid, [2, 2, 1]);
+        assert_eq!(params.blend, Blend::Nearest);
+        assert_eq!(params.depth_map.resolution, 256);
+        assert_eq!(ShadowsConfig::default().edge_table.params(), EdgeTableParams::balanced());
     }
 }

@@ -80,8 +80,10 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     }
     if let Some(n) = args.samples {
         shadows.samples = n;
-        shadows.validate(&scene_path, "--samples")?;
     }
+    // Again after the overrides: `--shadows edge_table` may meet a sample count only `traced`
+    // accepts.
+    shadows.validate(&scene_path, if args.samples.is_some() { "--samples" } else { "shadows.samples" })?;
     let width = args.width.unwrap_or(file.image.width);
     let height = args.height.unwrap_or(file.image.height);
     let spp = args.spp.unwrap_or(file.image.spp);

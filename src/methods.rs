@@ -2,11 +2,14 @@
 
 use crate::config::{MethodName, ShadowsConfig};
 use renderer::{LightShadowing, Traced, TracedParams, Unshadowed};
+use shadow_plugin::{DepthMarch, EdgeTable};
 
 /// A fresh, unprepared method for one light.
 pub fn build_shadowing(config: &ShadowsConfig) -> Box<dyn LightShadowing> {
     match config.method {
         MethodName::Traced => Box::new(Traced::new(TracedParams { samples: config.samples })),
         MethodName::None => Box::new(Unshadowed),
+        MethodName::EdgeTable => Box::new(EdgeTable::new(config.edge_table.params(), config.samples)),
+        MethodName::DepthMarch => Box::new(DepthMarch::new(config.depth_march.params(), config.samples)),
     }
 }

@@ -1,1 +1,13 @@
+//! Depth-map shadow methods for penumbra: `edge_table` (Egan & Neulander 2004) and its
+//! per-ray baseline and oracle `depth_march`, both on one light-space depth map.
 
+pub mod bits;
+pub mod depth_map;
+pub mod depth_march;
+pub mod edge_table;
+pub mod march;
+pub mod samples;
+
+pub use depth_map::{DepthMap, DepthMapParams, LightFrame};
+pub use depth_march::DepthMarch;
+pub use edge_table::{Blend, EdgeTable, EdgeTableParams, Mask};

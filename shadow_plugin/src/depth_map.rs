@@ -1,0 +1,210 @@
+//! The light-space depth map shared by the depth-map methods: a perspective map whose centre
+//! of projection is the light's centre and whose axis is the light's normal, with square
+//! pixels and linear planar depth in f32, rendered by rays through the BVH (alpha test
+//! honoured). Its frustum covers what the camera sees that the light reaches, plus the
+//! filter margin. Depths are stored already biased (see [`DepthMapParams::slope_bias`]).
+
+use glam::{Vec2, Vec3, Vec3A};
+use obvhs::ray::Ray;
+use rayon::prelude::*;
+use renderer::{RectLight, Scene, VisiblePoint};
+
+/// The light's frame: origin at its centre, x and y along its edges, z along its normal
+/// (into the scene). Light samples have z = 0 in this frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LightFrame {
+    pub origin: Vec3,
+    pub x: Vec3,
+    pub y: Vec3,
+    pub z: Vec3,
+    /// Half the light's edge lengths along x and y.
+    pub half_size: Vec2,
+}
+
+impl LightFrame {
+    pub fn new(light: &RectLight) -> Self {
+        let x = light.u.normalize();
+        let y = light.v.normalize();
+        Self {
+            origin: light.center,
+            x,
+            y,
+            z: x.cross(y),
+            half_size: 0.5 * Vec2::new(light.u.length(), light.v.length()),
+        }
+    }
+
+    #[inline]
+    pub fn light_from_world(&self, p: Vec3) -> Vec3 {
+        let d = p - self.origin;
+        Vec3::new(d.dot(self.x), d.dot(self.y), d.dot(self.z))
+    }
+
+    #[inline]
+    pub fn world_from_light(&self, p: Vec3) -> Vec3 {
+        self.origin + p.x * self.x + p.y * self.y + p.z * self.z
+    }
+}
+
+/// Depth-map parameters shared by `depth_march` and `edge_table`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DepthMapParams {
+    /// Pixels per side (square). More pixels: finer silhouettes, larger filter regions.
+    /// Typical 128 to 1024.
+    pub resolution: u32,
+    /// Slope-scaled bias in depth-map pixels: each texel's floor is pushed back by
+    /// `slope_bias x` the depth change of its surface across one pixel footprint (from the
+    /// surface normal at the texel), plus the scene's ray epsilon. Too little: lit surfaces
+    /// shadow themselves (acne); too much: contact shadows detach. 1.0 by measurement.
+    pub slope_bias: f32,
+}
+
+impl Default for DepthMapParams {
+    fn default() -> Self {
+        Self { resolution: 256, slope_bias: 1.0 }
+    }
+}
+
+/// Largest image-plane coordinate the frustum may reach: a half-angle of atan(4) = 76 deg.
+/// Beyond it one map cannot keep useful resolution; points whose filter region would need
+/// more fall back to traced rays.
+pub const MAX_TAN: f32 = 4.0;
+
+/// Steepest surface slope (tan of the angle to the view ray) the bias accounts for.
+const MAX_SLOPE: f32 = 8.0;
+
+#[derive(Debug, Clone)]
+pub struct DepthMap {
+    pub frame: LightFrame,
+    pub resolution: u32,
+    /// Image-plane coordinates (x/z, y/z) of the map's lower corner, and the pixel pitch.
+    pub origin: Vec2,
+    pub pitch: f32,
+    /// Biased planar depth per pixel, row-major from `origin`; +inf where no surface.
+    pub depth: Vec<f32>,
+    /// The smallest biased depth in the map (+inf for an empty map).
+    pub z_min: f32,
+    /// The nearest depth of any geometry that may cast onto the receivers (the frustum's
+    /// margin is sized for it).
+    pub caster_z_near: f32,
+}
+
+/// A point in depth-map terms: its pixel, its offset inside the pixel, its depth.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MapPoint {
+    pub pixel: [i32; 2],
+    pub offset: Vec2,
+    pub z: f32,
+}
+
+impl DepthMap {
+    /// Fits the frustum to the receivers in `visible` and renders the map.
+    pub fn build(
+        scene: &Scene,
+        light: &RectLight,
+        visible: &[VisiblePoint],
+        params: &DepthMapParams,
+    ) -> Self {
+        let frame = LightFrame::new(light);
+        let res = params.resolution.max(1);
+        let eps = scene.epsilon.eps;
+
+        // Receivers: visible points in front of the light.
+        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        let mut z_recv_min = f32::INFINITY;
+        for v in visible {
+            let p = frame.light_from_world(v.p);
+            if p.z > eps {
+                let img = Vec2::new(p.x, p.y) / p.z;
+                lo = lo.min(img);
+                hi = hi.max(img);
+                z_recv_min = z_recv_min.min(p.z);
+            }
+        }
+        if !lo.is_finite() {
+            (lo, hi, z_recv_min) = (Vec2::splat(-1.0), Vec2::splat(1.0), 1.0);
+        }
+        lo = lo.max(Vec2::splat(-MAX_TAN));
+        hi = hi.min(Vec2::splat(MAX_TAN));
+
+        // Casters: the nearest vertex in front of the light whose image could reach a
+        // receiver's filter region (conservatively, within the receivers' box grown by the
+        // light's half size / z).
+        let mut caster_z_near = z_recv_min;
+        for t in &scene.triangles {
+            for v in [t.v0, t.v1, t.v2] {
+                let p = frame.light_from_world(Vec3::from(v));
+                if p.z > eps && p.z < caster_z_near {
+                    let img = Vec2::new(p.x, p.y) / p.z;
+                    let reach = frame.half_size / p.z;
+                    if img.cmpge(lo - reach).all() && img.cmple(hi + reach).all() {
+                        caster_z_near = p.z;
+                    }
+                }
+            }
+        }
+        // The margin: how far a shadow ray travels in the image before it is above the
+        // nearest caster.
+        let margin = frame.half_size * (1.0 / caster_z_near - 1.0 / (z_recv_min.max(caster_z_near)));
+        let lo = (lo - margin).max(Vec2::splat(-MAX_TAN));
+        let hi = (hi + margin).min(Vec2::splat(MAX_TAN));
+        let side = (hi - lo).max_element().max(1e-6);
+        let centre = 0.5 * (lo + hi);
+        // One pixel of padding on each side so the border pixels are inside the fit.
+        let pitch = side / (res as f32 - 2.0).max(1.0);
+        let origin = centre - Vec2::splat(0.5 * pitch * res as f32);
+
+        let mut depth = vec![f32::INFINITY; (res * res) as usize];
+        depth.par_chunks_mut(res as usize).enumerate().for_each(|(j, row)| {
+            for (i, d) in row.iter_mut().enumerate() {
+                let img = origin + pitch * Vec2::new(i as f32 + 0.5, j as f32 + 0.5);
+                // Direction with light-space z = 1: the ray's t is then the planar depth.
+                let dir = frame.x * img.x + frame.y * img.y + frame.z;
+                let ray = Ray::new(Vec3A::from(frame.origin), Vec3A::from(dir), 2.0 * eps, f32::INFINITY);
+                if let Some(hit) = scene.intersect(ray) {
+                    let z = hit.t;
+                    let cos = hit.n_geom.dot(dir.normalize()).abs().max(1.0 / MAX_SLOPE.hypot(1.0));
+                    let tan = (1.0 - cos * cos).sqrt() / cos;
+                    *d = z + params.slope_bias * pitch * z * tan + eps;
+                }
+            }
+        });
+        let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
+        DepthMap { frame, resolution: res, origin, pitch, depth, z_min, caster_z_near }
+    }
+
+    /// Where a light-space point falls in the map (None behind or on the light plane).
+    #[inline]
+    pub fn locate(&self, p_light: Vec3) -> Option<MapPoint> {
+        if p_light.z <= 0.0 {
+            return None;
+        }
+        let g = (Vec2::new(p_light.x, p_light.y) / p_light.z - self.origin) / self.pitch;
+        if !g.is_finite() {
+            return None;
+        }
+        let cell = g.floor();
+        Some(MapPoint { pixel: [cell.x as i32, cell.y as i32], offset: g - cell, z: p_light.z })
+    }
+
+    /// Biased depth at pixel (i, j); +inf outside the map.
+    #[inline]
+    pub fn at(&self, i: i32, j: i32) -> f32 {
+        let n = self.resolution as i32;
+        if i < 0 || j < 0 || i >= n || j >= n {
+            return f32::INFINITY;
+        }
+        self.depth[(j * n + i) as usize]
+    }
+
+    /// Whether the pixel rectangle [lo, hi] (inclusive) lies inside the map.
+    #[inline]
+    pub fn contains(&self, lo: [i32; 2], hi: [i32; 2]) -> bool {
+        let n = self.resolution as i32;
+        lo[0] >= 0 && lo[1] >= 0 && hi[0] < n && hi[1] < n
+    }
+
+    pub fn bytes(&self) -> u64 {
+        (self.depth.len() * std::mem::size_of::<f32>()) as u64
+    }
+}

@@ -1,0 +1,93 @@
+//! Walking one shadow ray through the depth map's pixel frusta, and the walls-and-floors
+//! reading of the map (Agrawala et al. 2000) that decides whether it is blocked.
+//!
+//! In light space a shadow ray from P (depth `Pz`, image point g_P in pixel units) to the
+//! light sample L = (Lx, Ly, 0) is, with s = t / (1 - t) in [0, inf):
+//! image(s) = g_P + s (Lx, Ly) / (Pz * pitch), and its normalised height above P is
+//! h = zeta / Pz = s / (1 + s) (technical note, section 2.2). Both `edge_table` (at build
+//! time) and `depth_march` (per ray) use [`for_each_crossing`], so they see the same
+//! crossings with the same floating-point values: the differential test relies on it.
+//!
+//! The solid-heightfield reading ("variant A", the note's section 5.4 reduced form): a ray
+//! is blocked iff P is at or behind its own pixel's floor, or the ray enters some pixel at a
+//! normalised height h <= H(c) = 1 - D(c) / Pz (ties block), where D is the biased depth.
+
+use glam::Vec2;
+
+/// Calls `visit(cell, h)` for each pixel the ray enters, in order, with the cell relative to
+/// P's pixel and the normalised height at which it enters; stops at `h_stop` or when
+/// `visit` returns false. `offset` is P's position inside its pixel, in [0, 1)^2;
+/// `pz_pitch` is P's depth times the map's pixel pitch.
+///
+/// Conventions: a ray through a pixel corner (equal crossing parameters) steps in x first;
+/// a sample with Lx = 0 never crosses a vertical side (likewise y).
+#[inline]
+pub fn for_each_crossing(
+    offset: Vec2,
+    sample: Vec2,
+    pz_pitch: f32,
+    h_stop: f32,
+    mut visit: impl FnMut([i32; 2], f32) -> bool,
+) {
+    // s at the k-th vertical side: (k - offset.x) * pz_pitch / Lx, computed directly for
+    // every side (not accumulated) so every caller gets bit-identical values.
+    let (step_x, mut kx, scale_x) = axis(sample.x, pz_pitch);
+    let (step_y, mut ky, scale_y) = axis(sample.y, pz_pitch);
+    let mut sx = if step_x == 0 { f32::INFINITY } else { (kx as f32 - offset.x) * scale_x };
+    let mut sy = if step_y == 0 { f32::INFINITY } else { (ky as f32 - offset.y) * scale_y };
+    let mut cell = [0i32, 0i32];
+    loop {
+        let s;
+        if sx <= sy {
+            if sx == f32::INFINITY {
+                return;
+            }
+            s = sx;
+            cell[0] += step_x;
+            kx += step_x;
+            sx = (kx as f32 - offset.x) * scale_x;
+        } else {
+            s = sy;
+            cell[1] += step_y;
+            ky += step_y;
+            sy = (ky as f32 - offset.y) * scale_y;
+        }
+        let h = s / (1.0 + s);
+        if h >= h_stop || !visit(cell, h) {
+            return;
+        }
+    }
+}
+
+/// (step, first side index, s per pixel) along one axis.
+#[inline]
+fn axis(l: f32, pz_pitch: f32) -> (i32, i32, f32) {
+    if l > 0.0 {
+        (1, 1, pz_pitch / l)
+    } else if l < 0.0 {
+        (-1, 0, pz_pitch / l)
+    } else {
+        (0, 0, f32::INFINITY)
+    }
+}
+
+/// The normalised floor height of a pixel with biased depth `depth`, seen from depth `pz`.
+#[inline]
+pub fn floor_height(depth: f32, pz: f32) -> f32 {
+    1.0 - depth / pz
+}
+
+/// The height above which a ray from depth `pz` is above every floor of a map whose nearest
+/// (biased) depth is `z_min`.
+#[inline]
+pub fn stop_height(z_min: f32, pz: f32) -> f32 {
+    1.0 - z_min / pz
+}
+
+/// The pixel reach of a filter region, per axis: a ray from depth `pz` toward a light of
+/// half size `half_size` moves at most this many pixels before it is above depth `z_stop`.
+#[inline]
+pub fn region_reach(half_size: Vec2, pitch: f32, z_stop: f32, pz: f32) -> [i32; 2] {
+    let r = half_size * ((1.0 / z_stop - 1.0 / pz).max(0.0) / pitch);
+    [r.x.ceil() as i32 + 1, r.y.ceil() as i32 + 1]
+}
