@@ -4,7 +4,7 @@
 use renderer::SceneError;
 use renderer::config::deserialize_value;
 use serde::Deserialize;
-use shadow_plugin::{Blend, DepthMapParams, EdgeTableParams};
+use shadow_plugin::{Blend, DepthMapParams, EdgeTableParams, Heightfield};
 use std::path::Path;
 
 /// Shadow methods, as the scene file and `--shadows` spell them.
@@ -66,6 +66,28 @@ pub enum Preset {
     Fine,
 }
 
+/// How the depth map's heightfield is read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HeightfieldName {
+    /// Variant A: solid behind the first surface (inner penumbrae become umbra).
+    Solid,
+    /// Variant B: floors and front-facing walls.
+    Shells,
+    /// Floors only (thin plates).
+    Plates,
+}
+
+impl HeightfieldName {
+    fn get(self) -> Heightfield {
+        match self {
+            HeightfieldName::Solid => Heightfield::Solid,
+            HeightfieldName::Shells => Heightfield::Shells,
+            HeightfieldName::Plates => Heightfield::Plates,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum BlendName {
@@ -85,6 +107,7 @@ pub struct EdgeTableConfig {
     pub blend: Option<BlendName>,
     /// Slope-scaled depth bias in depth-map pixels.
     pub slope_bias: Option<f32>,
+    pub heightfield: Option<HeightfieldName>,
 }
 
 /// `[shadows.depth_march]`.
@@ -93,6 +116,7 @@ pub struct EdgeTableConfig {
 pub struct DepthMapConfig {
     pub depth_map: Option<u32>,
     pub slope_bias: Option<f32>,
+    pub heightfield: Option<HeightfieldName>,
 }
 
 /// Bounds checked at the boundary.
@@ -122,11 +146,18 @@ impl EdgeTableConfig {
         if let Some(b) = self.slope_bias {
             p.depth_map.slope_bias = b;
         }
+        if let Some(h) = self.heightfield {
+            p.heightfield = h.get();
+        }
         p
     }
 }
 
 impl DepthMapConfig {
+    pub fn heightfield(&self) -> Heightfield {
+        self.heightfield.unwrap_or(HeightfieldName::Shells).get()
+    }
+
     pub fn params(&self) -> DepthMapParams {
         let d = DepthMapParams::default();
         DepthMapParams {

@@ -10,6 +10,10 @@ pub fn build_shadowing(config: &ShadowsConfig) -> Box<dyn LightShadowing> {
         MethodName::Traced => Box::new(Traced::new(TracedParams { samples: config.samples })),
         MethodName::None => Box::new(Unshadowed),
         MethodName::EdgeTable => Box::new(EdgeTable::new(config.edge_table.params(), config.samples)),
-        MethodName::DepthMarch => Box::new(DepthMarch::new(config.depth_march.params(), config.samples)),
+        MethodName::DepthMarch => Box::new(DepthMarch::new(
+            config.depth_march.params(),
+            config.depth_march.heightfield(),
+            config.samples,
+        )),
     }
 }

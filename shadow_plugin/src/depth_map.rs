@@ -4,6 +4,7 @@
 //! honoured). Its frustum covers what the camera sees that the light reaches, plus the
 //! filter margin. Depths are stored already biased (see [`DepthMapParams::slope_bias`]).
 
+use crate::march::region_reach;
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::ray::Ray;
 use rayon::prelude::*;
@@ -87,6 +88,74 @@ pub struct DepthMap {
     /// The nearest depth of any geometry that may cast onto the receivers (the frustum's
     /// margin is sized for it).
     pub caster_z_near: f32,
+    pyramid: MinPyramid,
+}
+
+/// Share of the receivers' total irradiance, per side and axis, left out of the frustum.
+pub const RECEIVER_TRIM: f64 = 0.005;
+
+/// The range of `(coordinate, weight)` pairs that leaves out `RECEIVER_TRIM` of the total
+/// weight at each end.
+fn trimmed_range(values: &mut [(f32, f32)]) -> (f32, f32) {
+    values.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    let total: f64 = values.iter().map(|v| v.1 as f64).sum();
+    let cut = total * RECEIVER_TRIM;
+    let position = |iter: &mut dyn Iterator<Item = &(f32, f32)>| {
+        let mut acc = 0.0;
+        for v in iter {
+            acc += v.1 as f64;
+            if acc > cut {
+                return v.0;
+            }
+        }
+        values[0].0
+    };
+    let lo = position(&mut values.iter());
+    let hi = position(&mut values.iter().rev());
+    (lo.min(hi), hi.max(lo))
+}
+
+/// Min-depth mip levels: level l holds the minimum over 2^l x 2^l pixel blocks.
+#[derive(Debug, Clone)]
+struct MinPyramid {
+    levels: Vec<(usize, Vec<f32>)>,
+}
+
+impl MinPyramid {
+    fn new(depth: &[f32], n: usize) -> Self {
+        let mut levels = vec![(n, depth.to_vec())];
+        while levels.last().unwrap().0 > 1 {
+            let (m, prev) = levels.last().unwrap();
+            let (m, half) = (*m, m.div_ceil(2));
+            let mut next = vec![f32::INFINITY; half * half];
+            for j in 0..m {
+                for i in 0..m {
+                    let d = &mut next[(j / 2) * half + i / 2];
+                    *d = d.min(prev[j * m + i]);
+                }
+            }
+            levels.push((half, next));
+        }
+        Self { levels }
+    }
+
+    /// A lower bound of the depths in the pixel rectangle [lo, hi] (clipped to the map):
+    /// the minimum over the blocks of the first level where it spans at most 4 blocks.
+    fn min(&self, lo: [i32; 2], hi: [i32; 2]) -> f32 {
+        let n0 = self.levels[0].0 as i32;
+        let lo = [lo[0].clamp(0, n0 - 1), lo[1].clamp(0, n0 - 1)];
+        let hi = [hi[0].clamp(0, n0 - 1), hi[1].clamp(0, n0 - 1)];
+        let span = (hi[0] - lo[0]).max(hi[1] - lo[1]) as u32;
+        let l = (32 - (span / 4).leading_zeros()).min(self.levels.len() as u32 - 1) as usize;
+        let (m, data) = &self.levels[l];
+        let mut z = f32::INFINITY;
+        for j in (lo[1] >> l)..=(hi[1] >> l) {
+            for i in (lo[0] >> l)..=(hi[0] >> l) {
+                z = z.min(data[j as usize * m + i as usize]);
+            }
+        }
+        z
+    }
 }
 
 /// A point in depth-map terms: its pixel, its offset inside the pixel, its depth.
@@ -109,21 +178,31 @@ impl DepthMap {
         let res = params.resolution.max(1);
         let eps = scene.epsilon.eps;
 
-        // Receivers: visible points in front of the light.
-        let (mut lo, mut hi) = (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY));
+        // Receivers: visible points the light reaches, weighted by their irradiance. The
+        // frustum leaves out RECEIVER_TRIM of the total irradiance on each side of each axis:
+        // surfaces reaching up to the light's plane (a wall beside a ceiling light) would
+        // otherwise stretch the map over a huge field of view for points that the light
+        // only grazes; those fall back to traced rays.
+        let mut xs = Vec::with_capacity(visible.len());
+        let mut ys = Vec::with_capacity(visible.len());
         let mut z_recv_min = f32::INFINITY;
         for v in visible {
             let p = frame.light_from_world(v.p);
-            if p.z > eps {
-                let img = Vec2::new(p.x, p.y) / p.z;
-                lo = lo.min(img);
-                hi = hi.max(img);
+            let e = light.irradiance_factor(v.p, v.n_shading);
+            if p.z > eps && e > 0.0 {
+                xs.push((p.x / p.z, e));
+                ys.push((p.y / p.z, e));
                 z_recv_min = z_recv_min.min(p.z);
             }
         }
-        if !lo.is_finite() {
-            (lo, hi, z_recv_min) = (Vec2::splat(-1.0), Vec2::splat(1.0), 1.0);
-        }
+        let (mut lo, mut hi) = if xs.is_empty() {
+            z_recv_min = 1.0;
+            (Vec2::splat(-1.0), Vec2::splat(1.0))
+        } else {
+            let (x0, x1) = trimmed_range(&mut xs);
+            let (y0, y1) = trimmed_range(&mut ys);
+            (Vec2::new(x0, y0), Vec2::new(x1, y1))
+        };
         lo = lo.max(Vec2::splat(-MAX_TAN));
         hi = hi.min(Vec2::splat(MAX_TAN));
 
@@ -162,15 +241,64 @@ impl DepthMap {
                 let dir = frame.x * img.x + frame.y * img.y + frame.z;
                 let ray = Ray::new(Vec3A::from(frame.origin), Vec3A::from(dir), 2.0 * eps, f32::INFINITY);
                 if let Some(hit) = scene.intersect(ray) {
+                    // Planar depth over the image is z = c / (n . (u, v, 1)) for a plane with
+                    // light-frame normal n, so one pixel changes it by about
+                    // pitch * z * |n_xy| / |n . (u, v, 1)|: zero for surfaces facing the
+                    // light squarely, large for grazing ones (capped at MAX_SLOPE).
                     let z = hit.t;
-                    let cos = hit.n_geom.dot(dir.normalize()).abs().max(1.0 / MAX_SLOPE.hypot(1.0));
-                    let tan = (1.0 - cos * cos).sqrt() / cos;
-                    *d = z + params.slope_bias * pitch * z * tan + eps;
+                    let n =
+                        Vec3::new(hit.n_geom.dot(frame.x), hit.n_geom.dot(frame.y), hit.n_geom.dot(frame.z));
+                    let facing = (n.x * img.x + n.y * img.y + n.z).abs();
+                    let slope = (n.truncate().length() / facing.max(1e-12)).min(MAX_SLOPE);
+                    *d = z + params.slope_bias * pitch * z * slope + eps;
                 }
             }
         });
         let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
-        DepthMap { frame, resolution: res, origin, pitch, depth, z_min, caster_z_near }
+        let pyramid = MinPyramid::new(&depth, res as usize);
+        DepthMap { frame, resolution: res, origin, pitch, depth, z_min, caster_z_near, pyramid }
+    }
+
+    /// A map over a given heightfield (biased depths, row-major), for tests and tools.
+    pub fn from_depths(
+        frame: LightFrame,
+        origin: Vec2,
+        pitch: f32,
+        resolution: u32,
+        depth: Vec<f32>,
+    ) -> Self {
+        assert_eq!(depth.len(), (resolution * resolution) as usize);
+        let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
+        let pyramid = MinPyramid::new(&depth, resolution as usize);
+        DepthMap { frame, resolution, origin, pitch, depth, z_min, caster_z_near: z_min, pyramid }
+    }
+
+    /// The depth above which shadow rays from a point at pixel `pixel` and depth `pz` can no
+    /// longer be blocked by the map (region shrinking with a min-depth pyramid, technical
+    /// note 10.3a): starting from the map's nearest depth, the filter region is shrunk to the
+    /// nearest depth inside it, a few times. Each depth is a lower bound of the depths in
+    /// the region the previous one implied, so a ray is blocked iff it is blocked below it.
+    /// Outside the map there is no occluder (the frustum's margin is sized for the casters);
+    /// the flag says whether the final region reaches outside it.
+    pub fn stop_depth(&self, pixel: [i32; 2], pz: f32) -> (f32, bool) {
+        let mut z = self.z_min;
+        for _ in 0..3 {
+            if pz <= z {
+                break;
+            }
+            let reach = region_reach(self.frame.half_size, self.pitch, z, pz);
+            let lo = [pixel[0] - reach[0], pixel[1] - reach[1]];
+            let hi = [pixel[0] + reach[0], pixel[1] + reach[1]];
+            let z_region = self.pyramid.min(lo, hi);
+            if z_region <= z {
+                break;
+            }
+            z = z_region;
+        }
+        let reach = region_reach(self.frame.half_size, self.pitch, z.min(pz), pz);
+        let (lo, hi) =
+            ([pixel[0] - reach[0], pixel[1] - reach[1]], [pixel[0] + reach[0], pixel[1] + reach[1]]);
+        (z, !self.contains(lo, hi))
     }
 
     /// Where a light-space point falls in the map (None behind or on the light plane).

@@ -8,7 +8,8 @@
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
-use crate::march::{floor_height, for_each_crossing, region_reach, stop_height};
+use crate::edge_table::Heightfield;
+use crate::march::{floor_height, ray_blocked, stop_height};
 use crate::samples;
 use glam::Vec2;
 use renderer::sampling::Rng;
@@ -16,61 +17,54 @@ use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery, 
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Visible-sample bits of the rays from map point `mp` to `samples`: bit r is 1 iff ray r
-/// is not blocked by the solid heightfield of `map`.
-pub fn march_bits(map: &DepthMap, mp: &MapPoint, samples: &[Vec2], out: &mut [u64]) -> MarchStats {
-    let mut stats = MarchStats::default();
-    let n = samples.len();
-    bits::fill_first(out, n);
+/// is not blocked by the heightfield of `map` read as `heightfield`. `z_stop` is the depth
+/// above which no ray can be blocked ([`DepthMap::stop_depth`]).
+pub fn march_bits(
+    map: &DepthMap,
+    mp: &MapPoint,
+    samples: &[Vec2],
+    z_stop: f32,
+    heightfield: Heightfield,
+    out: &mut [u64],
+) {
+    bits::fill_first(out, samples.len());
     let [i0, j0] = mp.pixel;
-    if floor_height(map.at(i0, j0), mp.z) >= 0.0 {
-        out.iter_mut().for_each(|w| *w = 0); // at or behind its own floor
-        return stats;
-    }
-    let h_stop = stop_height(map.z_min, mp.z);
+    let h_stop = stop_height(z_stop, mp.z);
     let pz_pitch = mp.z * map.pitch;
+    let floor = |c: [i32; 2]| floor_height(map.at(i0 + c[0], j0 + c[1]), mp.z);
     for (r, s) in samples.iter().enumerate() {
-        let mut blocked = false;
-        for_each_crossing(mp.offset, *s, pz_pitch, h_stop, |c, h| {
-            stats.steps += 1;
-            blocked = h <= floor_height(map.at(i0 + c[0], j0 + c[1]), mp.z);
-            !blocked
-        });
-        if blocked {
+        if ray_blocked(mp.offset, *s, pz_pitch, h_stop, heightfield, floor) {
             out[r / 64] &= !(1u64 << (r % 64));
         }
     }
-    stats
-}
-
-#[derive(Debug, Default, Clone, Copy)]
-pub struct MarchStats {
-    pub steps: u64,
 }
 
 /// The plugin.
 pub struct DepthMarch {
     params: DepthMapParams,
+    heightfield: Heightfield,
     samples: u32,
     map: Option<DepthMap>,
     fallback: Traced,
-    steps: AtomicU64,
     fallbacks: AtomicU64,
     early_outs: AtomicU64,
+    clipped: AtomicU64,
 }
 
 impl DepthMarch {
     /// # Panics
     /// `samples` above [`MAX_SAMPLES`] (checked at the config boundary).
-    pub fn new(params: DepthMapParams, samples: u32) -> Self {
+    pub fn new(params: DepthMapParams, heightfield: Heightfield, samples: u32) -> Self {
         assert!((1..=MAX_SAMPLES as u32).contains(&samples));
         Self {
             params,
+            heightfield,
             samples,
             map: None,
             fallback: Traced::new(TracedParams { samples }),
-            steps: AtomicU64::new(0),
             fallbacks: AtomicU64::new(0),
             early_outs: AtomicU64::new(0),
+            clipped: AtomicU64::new(0),
         }
     }
 
@@ -101,11 +95,9 @@ impl LightShadowing for DepthMarch {
             self.fallbacks.fetch_add(1, Ordering::Relaxed);
             return self.fallback.visibility(scene, q);
         };
-        let reach = region_reach(frame.half_size, map.pitch, map.z_min.min(map.caster_z_near), p.z);
-        let [i, j] = mp.pixel;
-        if !map.contains([i - reach[0], j - reach[1]], [i + reach[0], j + reach[1]]) {
-            self.fallbacks.fetch_add(1, Ordering::Relaxed);
-            return self.fallback.visibility(scene, q);
+        let (z_stop, clipped) = map.stop_depth(mp.pixel, p.z);
+        if clipped {
+            self.clipped.fetch_add(1, Ordering::Relaxed);
         }
         let n = self.samples as usize;
         let mut sample_buf = [Vec2::ZERO; MAX_SAMPLES];
@@ -114,8 +106,7 @@ impl LightShadowing for DepthMarch {
         let w = bits::words(n);
         let mut visible = [0u64; MAX_WORDS];
         let mut above = [0u64; MAX_WORDS];
-        let stats = march_bits(map, &mp, samples, &mut visible[..w]);
-        self.steps.fetch_add(stats.steps, Ordering::Relaxed);
+        march_bits(map, &mp, samples, z_stop, self.heightfield, &mut visible[..w]);
         samples::above_horizon(frame, samples, q.p, q.n_shading, &mut above[..w]);
         let n_above = bits::count(&above[..w]);
         if n_above == 0 {
@@ -126,9 +117,9 @@ impl LightShadowing for DepthMarch {
 
     fn counters(&self) -> Vec<(&'static str, u64)> {
         let mut c = vec![
-            ("march_steps", self.steps.load(Ordering::Relaxed)),
             ("fallbacks", self.fallbacks.load(Ordering::Relaxed)),
             ("early_outs", self.early_outs.load(Ordering::Relaxed)),
+            ("regions_clipped", self.clipped.load(Ordering::Relaxed)),
             ("depth_map_bytes", self.map.as_ref().map_or(0, |m| m.bytes())),
         ];
         c.extend(self.fallback.counters().into_iter().map(|(k, v)| (fallback_name(k), v)));

@@ -38,7 +38,7 @@
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams};
 use crate::depth_march::fallback_name;
-use crate::march::{floor_height, for_each_crossing, region_reach, stop_height};
+use crate::march::{floor_height, for_each_crossing, stop_height};
 use crate::samples;
 use glam::Vec2;
 use rayon::prelude::*;
@@ -65,6 +65,8 @@ pub struct EdgeTableParams {
     /// range.
     pub grid: [u32; 3],
     pub blend: Blend,
+    /// How the depth map's heightfield is read (variant A or B).
+    pub heightfield: Heightfield,
 }
 
 impl EdgeTableParams {
@@ -74,6 +76,7 @@ impl EdgeTableParams {
             depth_map: DepthMapParams { resolution: 256, slope_bias: 1.0 },
             grid: [4, 4, 1],
             blend: Blend::Nearest,
+            heightfield: Heightfield::Shells,
         }
     }
     /// The default: 256^2 map, 4 x 4 x 2 masks, trilinear.
@@ -82,6 +85,7 @@ impl EdgeTableParams {
             depth_map: DepthMapParams { resolution: 256, slope_bias: 1.0 },
             grid: [4, 4, 2],
             blend: Blend::Trilinear,
+            heightfield: Heightfield::Shells,
         }
     }
     /// Finer: 512^2 map, 8 x 8 x 4 masks, trilinear.
@@ -90,6 +94,7 @@ impl EdgeTableParams {
             depth_map: DepthMapParams { resolution: 512, slope_bias: 1.0 },
             grid: [8, 8, 4],
             blend: Blend::Trilinear,
+            heightfield: Heightfield::Shells,
         }
     }
 }
@@ -100,16 +105,32 @@ impl Default for EdgeTableParams {
     }
 }
 
-/// The tables of one pixel of a mask's region: crossings `start..start + len` of the mask's
-/// `heights` / `masks` arrays.
+/// One pixel-frustum side of a mask's region, as the rays cross it: from pixel `from` into
+/// pixel `to` (indices into `Mask::cells`), crossings `start..start + len` of the mask's
+/// `heights` / `masks`, sorted by height.
 #[derive(Debug, Clone, Copy)]
-struct CellTable {
-    dx: i32,
-    dy: i32,
+struct SideTable {
+    from: u32,
+    to: u32,
     start: u32,
     len: u32,
     /// The lowest crossing height: a floor below it blocks nothing here.
     first: f32,
+}
+
+const NONE: u32 = u32::MAX;
+
+/// A pixel of a mask's region (relative to the model point's pixel) and its sides.
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    dx: i32,
+    dy: i32,
+    /// At most two sides lead into a pixel (rays move monotonically in x and y); up to four
+    /// lead out (all four for the own pixel, three for the rest of its row and column).
+    in_edges: [u32; 2],
+    out_edges: [u32; 4],
+    /// The lowest crossing into this pixel (+inf for the own pixel).
+    in_first: f32,
 }
 
 /// One edge-table mask.
@@ -121,15 +142,18 @@ pub struct Mask {
     /// Light samples (light frame, z = 0).
     pub samples: Vec<Vec2>,
     words: usize,
-    cells: Vec<CellTable>,
-    /// Crossing heights, grouped by cell, ascending within a cell.
+    /// Cell 0 is the own pixel; the rest in order of `in_first`.
+    cells: Vec<Cell>,
+    /// In order of `first`.
+    edges: Vec<SideTable>,
+    /// Crossing heights, grouped by edge, ascending within an edge.
     heights: Vec<f32>,
-    /// Cumulative bitmasks, `words` per crossing: ray bits still set = not yet entered at or
+    /// Cumulative bitmasks, `words` per crossing: ray bits still set = not yet crossed at or
     /// below that height.
     masks: Vec<u64>,
-    /// Pixel extent of the region relative to the model point's pixel: [min x, min y, max
-    /// x, max y].
-    pub extent: [i32; 4],
+    full: Vec<u64>,
+    /// The normalised height up to which rays were marched: queries needing more fall back.
+    pub h_max: f32,
 }
 
 impl Mask {
@@ -138,49 +162,108 @@ impl Mask {
     pub fn build(offset: Vec2, depth: f32, samples: Vec<Vec2>, pitch: f32, h_stop: f32) -> Self {
         let n = samples.len();
         let words = bits::words(n);
-        let mut crossings: Vec<([i32; 2], f32, u32)> = Vec::new();
+        // (pixel entered, axis crossed, height, ray)
+        let mut crossings: Vec<([i32; 2], u8, f32, u32)> = Vec::new();
         for (r, s) in samples.iter().enumerate() {
-            for_each_crossing(offset, *s, depth * pitch, h_stop, |c, h| {
-                crossings.push((c, h, r as u32));
+            for_each_crossing(offset, *s, depth * pitch, h_stop, |c, axis, h| {
+                crossings.push((c, axis, h, r as u32));
                 true
             });
         }
-        // Row-major cell order (so a query reads the depth map row by row), then height.
         crossings.sort_unstable_by(|a, b| {
-            (a.0[1], a.0[0]).cmp(&(b.0[1], b.0[0])).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2))
+            (a.0[1], a.0[0], a.1).cmp(&(b.0[1], b.0[0], b.1)).then(a.2.total_cmp(&b.2)).then(a.3.cmp(&b.3))
         });
         let mut full = vec![0u64; words];
         bits::fill_first(&mut full, n);
-        let mut cells = Vec::new();
+
+        let mut cell_index: std::collections::HashMap<[i32; 2], u32> = std::collections::HashMap::new();
+        let mut cells =
+            vec![Cell { dx: 0, dy: 0, in_edges: [NONE; 2], out_edges: [NONE; 4], in_first: f32::INFINITY }];
+        cell_index.insert([0, 0], 0);
+        let mut cell_of = |c: [i32; 2], cells: &mut Vec<Cell>| -> u32 {
+            *cell_index.entry(c).or_insert_with(|| {
+                cells.push(Cell {
+                    dx: c[0],
+                    dy: c[1],
+                    in_edges: [NONE; 2],
+                    out_edges: [NONE; 4],
+                    in_first: f32::INFINITY,
+                });
+                cells.len() as u32 - 1
+            })
+        };
+        let mut edges = Vec::new();
         let mut heights = Vec::with_capacity(crossings.len());
         let mut masks = Vec::with_capacity(crossings.len() * words);
-        let mut extent = [0i32; 4];
         let mut i = 0;
         while i < crossings.len() {
-            let cell = crossings[i].0;
+            let (to, axis) = (crossings[i].0, crossings[i].1);
+            // Rays move monotonically, so every ray crosses this side the same way: from
+            // the neighbour nearer the own pixel's row or column.
+            let k = to[axis as usize];
+            let mut from = to;
+            from[axis as usize] = if k > 0 { k - 1 } else { k + 1 };
             let start = heights.len() as u32;
             let mut current = full.clone();
-            while i < crossings.len() && crossings[i].0 == cell {
-                let (_, h, r) = crossings[i];
+            while i < crossings.len() && crossings[i].0 == to && crossings[i].1 == axis {
+                let (_, _, h, r) = crossings[i];
                 current[r as usize / 64] &= !(1u64 << (r % 64));
                 heights.push(h);
                 masks.extend_from_slice(&current);
                 i += 1;
             }
-            let len = heights.len() as u32 - start;
-            cells.push(CellTable { dx: cell[0], dy: cell[1], start, len, first: heights[start as usize] });
-            extent = [
-                extent[0].min(cell[0]),
-                extent[1].min(cell[1]),
-                extent[2].max(cell[0]),
-                extent[3].max(cell[1]),
-            ];
+            let (to_i, from_i) = (cell_of(to, &mut cells), cell_of(from, &mut cells));
+            let first = heights[start as usize];
+            let e = edges.len() as u32;
+            edges.push(SideTable { from: from_i, to: to_i, start, len: heights.len() as u32 - start, first });
+            let slot = |list: &mut [u32]| {
+                let free =
+                    list.iter().position(|&x| x == NONE).expect("a pixel has at most 2 in- and 4 out-sides");
+                list[free] = e;
+            };
+            slot(&mut cells[to_i as usize].in_edges);
+            slot(&mut cells[from_i as usize].out_edges);
+            let c = &mut cells[to_i as usize];
+            c.in_first = c.in_first.min(first);
         }
-        Mask { offset, depth, samples, words, cells, heights, masks, extent }
+        // Sort edges and cells by their lowest crossing, remapping indices.
+        let mut edge_order: Vec<u32> = (0..edges.len() as u32).collect();
+        edge_order
+            .sort_by(|&a, &b| edges[a as usize].first.total_cmp(&edges[b as usize].first).then(a.cmp(&b)));
+        let mut cell_order: Vec<u32> = (1..cells.len() as u32).collect();
+        cell_order.sort_by(|&a, &b| {
+            cells[a as usize].in_first.total_cmp(&cells[b as usize].in_first).then(a.cmp(&b))
+        });
+        cell_order.insert(0, 0);
+        let mut new_edge = vec![0u32; edges.len()];
+        for (new, &old) in edge_order.iter().enumerate() {
+            new_edge[old as usize] = new as u32;
+        }
+        let mut new_cell = vec![0u32; cells.len()];
+        for (new, &old) in cell_order.iter().enumerate() {
+            new_cell[old as usize] = new as u32;
+        }
+        let remap = |e: u32| if e == NONE { NONE } else { new_edge[e as usize] };
+        let cells: Vec<Cell> = cell_order
+            .iter()
+            .map(|&c| {
+                let c = cells[c as usize];
+                Cell { in_edges: c.in_edges.map(remap), out_edges: c.out_edges.map(remap), ..c }
+            })
+            .collect();
+        let edges: Vec<SideTable> = edge_order
+            .iter()
+            .map(|&e| {
+                let e = edges[e as usize];
+                SideTable { from: new_cell[e.from as usize], to: new_cell[e.to as usize], ..e }
+            })
+            .collect();
+        Mask { offset, depth, samples, words, cells, edges, heights, masks, full, h_max: h_stop }
     }
 
     pub fn bytes(&self) -> u64 {
-        (self.cells.len() * std::mem::size_of::<CellTable>()
+        (self.cells.len() * std::mem::size_of::<Cell>()
+            + self.edges.len() * std::mem::size_of::<SideTable>()
             + self.heights.len() * 4
             + self.masks.len() * 8
             + self.samples.len() * 8) as u64
@@ -190,41 +273,158 @@ impl Mask {
         self.heights.len()
     }
 
-    /// Unblocked-ray bits for a point at depth `pz` whose mask-relative pixel is `base`:
-    /// bit r is 1 iff ray r enters no pixel of the region at or below its floor (and the
-    /// point is in front of its own floor). Returns the number of table searches.
-    pub fn query(&self, map: &DepthMap, base: [i32; 2], pz: f32, out: &mut [u64]) -> QueryStats {
-        let mut stats = QueryStats::default();
-        let out = &mut out[..self.words];
-        if floor_height(map.at(base[0], base[1]), pz) >= 0.0 {
-            out.iter_mut().for_each(|w| *w = 0);
-            stats.early_out = true;
-            return stats;
+    /// Below(q) of an edge: the cumulative mask of its crossings at or below `q` (ties
+    /// count as below), FULL when none is.
+    #[inline]
+    fn below(&self, e: &SideTable, q: f32) -> &[u64] {
+        if q < e.first {
+            return &self.full;
         }
-        bits::fill_first(out, self.samples.len());
-        // Only floors that can reach above a ray matter: H(c) >= first crossing height.
-        for c in &self.cells {
-            let h_floor = floor_height(map.at(base[0] + c.dx, base[1] + c.dy), pz);
-            if h_floor < c.first {
-                continue;
-            }
-            let range = c.start as usize..(c.start + c.len) as usize;
-            // The last crossing at or below the floor (ties block).
-            let k = self.heights[range.clone()].partition_point(|&h| h <= h_floor) - 1;
-            let m = &self.masks[(c.start as usize + k) * self.words..][..self.words];
+        let range = e.start as usize..(e.start + e.len) as usize;
+        let k = self.heights[range].partition_point(|&h| h <= q) - 1;
+        &self.masks[(e.start as usize + k) * self.words..][..self.words]
+    }
+
+    /// Unblocked-ray bits for a point at depth `pz` whose mask-relative pixel is `base`,
+    /// considering crossings below the normalised height `h_stop` (at most
+    /// [`Mask::h_max`]): bit r is 1 iff ray r is not blocked by the heightfield read as
+    /// `heightfield`.
+    pub fn query(
+        &self,
+        map: &DepthMap,
+        base: [i32; 2],
+        pz: f32,
+        h_stop: f32,
+        heightfield: Heightfield,
+        out: &mut [u64],
+    ) -> QueryStats {
+        let mut stats = QueryStats::default();
+        let words = self.words;
+        let out = &mut out[..words];
+        out.copy_from_slice(&self.full);
+        let floor = |c: &Cell| floor_height(map.at(base[0] + c.dx, base[1] + c.dy), pz);
+        let h_own = floor(&self.cells[0]);
+        let and = |out: &mut [u64], m: &[u64]| -> bool {
             let mut any = 0u64;
             for (o, w) in out.iter_mut().zip(m) {
                 *o &= *w;
                 any |= *o;
             }
-            stats.lookups += 1;
-            if any == 0 {
+            any != 0
+        };
+        if h_own < 0.0 && heightfield != Heightfield::Plates {
+            // P starts above its floor: both readings block a ray exactly where it first
+            // enters a pixel at or below that pixel's floor (note 5.4-5.5), so AND every
+            // side's Below(floor of the pixel it leads into): one search per side.
+            for e in &self.edges {
+                if e.first >= h_stop {
+                    break; // this side and every later one is crossed only above the stop
+                }
+                let h = floor(&self.cells[e.to as usize]);
+                if h < e.first {
+                    continue;
+                }
+                stats.lookups += 1;
+                if !and(out, self.below(e, h)) {
+                    stats.early_out = true;
+                    break;
+                }
+            }
+            return stats;
+        }
+        match heightfield {
+            Heightfield::Solid => {
+                // P is inside the solid behind its own floor: every way out is blocked.
+                out.iter_mut().for_each(|w| *w = 0);
                 stats.early_out = true;
-                break;
+            }
+            Heightfield::Shells | Heightfield::Plates => {
+                // Floors and front-facing walls (INTERSECTFLOOR / INTERSECTWALL): a ray is
+                // blocked where it rises through a floor it is under, or passes from above
+                // one floor to under a higher one.
+                let mut in_mask = [0u64; MAX_WORDS];
+                let mut out_mask = [0u64; MAX_WORDS];
+                for (k, c) in self.cells.iter().enumerate() {
+                    if k > 0 && c.in_first >= h_stop {
+                        break;
+                    }
+                    let h = floor(c);
+                    if k > 0 && h < c.in_first {
+                        continue; // no ray enters below this floor: the floor blocks nothing
+                    }
+                    // In: entered at or below the floor (the own pixel: P itself, at 0).
+                    let in_m = &mut in_mask[..words];
+                    if k == 0 {
+                        if h < 0.0 {
+                            continue; // P above its own floor: that floor blocks nothing
+                        }
+                        in_m.iter_mut().for_each(|w| *w = 0);
+                    } else {
+                        in_m.copy_from_slice(&self.full);
+                        for &e in c.in_edges.iter().filter(|&&e| e != NONE) {
+                            and(in_m, self.below(&self.edges[e as usize], h));
+                            stats.lookups += 1;
+                        }
+                    }
+                    // Out: left at or below the floor.
+                    let out_m = &mut out_mask[..words];
+                    out_m.copy_from_slice(&self.full);
+                    for &e in c.out_edges.iter().filter(|&&e| e != NONE) {
+                        and(out_m, self.below(&self.edges[e as usize], h));
+                        stats.lookups += 1;
+                    }
+                    let mut any = 0u64;
+                    for ((o, i), x) in out.iter_mut().zip(in_m.iter()).zip(out_m.iter()) {
+                        *o &= *i | !*x;
+                        any |= *o;
+                    }
+                    if any == 0 {
+                        stats.early_out = true;
+                        return stats;
+                    }
+                }
+                for e in &self.edges {
+                    if e.first >= h_stop || heightfield == Heightfield::Plates {
+                        break;
+                    }
+                    let h_to = floor(&self.cells[e.to as usize]);
+                    let h_from = floor(&self.cells[e.from as usize]);
+                    if h_from < h_to && h_to >= e.first {
+                        // Wall (h_from, h_to]: (NOT Below(h_from)) OR Below(h_to).
+                        let lo = self.below(e, h_from);
+                        let hi = self.below(e, h_to);
+                        let mut any = 0u64;
+                        for ((o, l), u) in out.iter_mut().zip(lo).zip(hi) {
+                            *o &= !*l | *u;
+                            any |= *o;
+                        }
+                        stats.lookups += 2;
+                        if any == 0 {
+                            stats.early_out = true;
+                            return stats;
+                        }
+                    }
+                }
             }
         }
         stats
     }
+}
+
+/// How a single depth map's heightfield is read (technical note, section 5.5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Heightfield {
+    /// Variant A: everything behind the first surface seen from the light's centre is solid.
+    /// Points in that hard shadow are fully blocked, so the inner penumbra becomes umbra.
+    Solid,
+    /// Variant B: floors and front-facing walls only; occluders are shells at their
+    /// light-facing surfaces, so rays may leave from under a thin occluder sideways.
+    /// Identical to `Solid` for points in front of their own floor.
+    Shells,
+    /// Floors only: every depth-map pixel is a thin plate at its depth, with nothing under
+    /// it. Floating thin occluders get their outer penumbra right (no walls hang from their
+    /// edges); thick occluders leak where a ray passes under their top and out of a side.
+    Plates,
 }
 
 #[derive(Debug, Default, Clone, Copy)]
@@ -243,6 +443,7 @@ pub struct EdgeTable {
     lookups: AtomicU64,
     early_outs: AtomicU64,
     fallbacks: AtomicU64,
+    clipped: AtomicU64,
 }
 
 struct Prepared {
@@ -251,9 +452,10 @@ struct Prepared {
     masks: Vec<Mask>,
     /// Depth of each level (ascending).
     levels: Vec<f32>,
-    /// The union of every mask's region extent.
-    extent: [i32; 4],
 }
+
+/// Share of receivers whose stop height the masks cover (the rest fall back to traced).
+pub const MASK_HEIGHT_QUANTILE: f64 = 0.995;
 
 impl EdgeTable {
     /// # Panics
@@ -270,6 +472,7 @@ impl EdgeTable {
             lookups: AtomicU64::new(0),
             early_outs: AtomicU64::new(0),
             fallbacks: AtomicU64::new(0),
+            clipped: AtomicU64::new(0),
         }
     }
 
@@ -366,6 +569,23 @@ impl LightShadowing for EdgeTable {
                 _ => z_hi.max(levels[k]),
             })
             .collect();
+        // The height masks march to: what the receivers need after region shrinking, up to
+        // its MASK_HEIGHT_QUANTILE; the few receivers that need more fall back to traced.
+        let mut needed: Vec<f32> = ctx
+            .visible
+            .par_iter()
+            .filter_map(|v| {
+                let p = map.frame.light_from_world(v.p);
+                let mp = map.locate(p)?;
+                Some(stop_height(map.stop_depth(mp.pixel, p.z).0, p.z))
+            })
+            .collect();
+        let h_cap = if needed.is_empty() {
+            0.0
+        } else {
+            needed.sort_unstable_by(f32::total_cmp);
+            needed[((needed.len() - 1) as f64 * MASK_HEIGHT_QUANTILE) as usize]
+        };
         let n = self.samples as usize;
         let half = map.frame.half_size;
         let pitch = map.pitch;
@@ -384,19 +604,10 @@ impl LightShadowing for EdgeTable {
                     &mut Rng::new(stream_seed(&[seed, light_index, m as u64, 3])),
                 );
                 let depth = levels[k as usize];
-                Mask::build(offset, depth, s, pitch, stop_height(z_min, serve_hi[k as usize]))
+                Mask::build(offset, depth, s, pitch, stop_height(z_min, serve_hi[k as usize]).min(h_cap))
             })
             .collect();
-        let mut extent = [0i32; 4];
-        for m in &masks {
-            extent = [
-                extent[0].min(m.extent[0]),
-                extent[1].min(m.extent[1]),
-                extent[2].max(m.extent[2]),
-                extent[3].max(m.extent[3]),
-            ];
-        }
-        self.state = Some(Prepared { map, masks, levels, extent });
+        self.state = Some(Prepared { map, masks, levels });
         Ok(())
     }
 
@@ -415,15 +626,14 @@ impl LightShadowing for EdgeTable {
             self.fallback.visibility(scene, q)
         };
         let Some(mp) = map.locate(p) else { return fallback() };
-        // The region must lie in the map: the masks' own extents (one pixel of shift for
-        // the wrapped neighbours) and the reach of rays up to the nearest caster.
-        let reach = region_reach(frame.half_size, map.pitch, map.z_min.min(map.caster_z_near), p.z);
-        let [i, j] = mp.pixel;
-        let lo = [i - 1 + st.extent[0].min(-reach[0]), j - 1 + st.extent[1].min(-reach[1])];
-        let hi = [i + 1 + st.extent[2].max(reach[0]), j + 1 + st.extent[3].max(reach[1])];
-        if !map.contains(lo, hi) {
-            return fallback();
+        // The masks must reach the region's stop height. A region reaching outside the map
+        // sees no occluder there (counted).
+        let (z_stop, clipped) = map.stop_depth(mp.pixel, p.z);
+        if clipped {
+            self.clipped.fetch_add(1, Ordering::Relaxed);
         }
+        let h_stop = stop_height(z_stop, p.z);
+        let [i, j] = mp.pixel;
         let mut chosen = [(0usize, [0i32; 2], 0.0f32); 8];
         let count = self.select(st, mp.offset, p.z, &mut chosen);
         let mut visible = [0u64; MAX_WORDS];
@@ -431,8 +641,18 @@ impl LightShadowing for EdgeTable {
         let (mut v, mut lookups, mut early_outs) = (0.0f32, 0u64, 0u64);
         for &(m, shift, w) in &chosen[..count] {
             let mask = &st.masks[m];
+            if h_stop > mask.h_max {
+                return fallback();
+            }
             let words = bits::words(mask.samples.len());
-            let stats = mask.query(map, [i + shift[0], j + shift[1]], p.z, &mut visible);
+            let stats = mask.query(
+                map,
+                [i + shift[0], j + shift[1]],
+                p.z,
+                h_stop,
+                self.params.heightfield,
+                &mut visible,
+            );
             lookups += stats.lookups;
             early_outs += stats.early_out as u64;
             let all_above =
@@ -467,6 +687,7 @@ impl LightShadowing for EdgeTable {
             ("edge_lookups", self.lookups.load(Ordering::Relaxed)),
             ("early_outs", self.early_outs.load(Ordering::Relaxed)),
             ("fallbacks", self.fallbacks.load(Ordering::Relaxed)),
+            ("regions_clipped", self.clipped.load(Ordering::Relaxed)),
         ];
         c.extend(self.fallback.counters().into_iter().map(|(k, v)| (fallback_name(k), v)));
         c

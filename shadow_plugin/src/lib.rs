@@ -10,4 +10,4 @@ pub mod samples;
 
 pub use depth_map::{DepthMap, DepthMapParams, LightFrame};
 pub use depth_march::DepthMarch;
-pub use edge_table::{Blend, EdgeTable, EdgeTableParams, Mask};
+pub use edge_table::{Blend, EdgeTable, EdgeTableParams, Heightfield, Mask};

@@ -8,13 +8,16 @@
 //! time) and `depth_march` (per ray) use [`for_each_crossing`], so they see the same
 //! crossings with the same floating-point values: the differential test relies on it.
 //!
-//! The solid-heightfield reading ("variant A", the note's section 5.4 reduced form): a ray
-//! is blocked iff P is at or behind its own pixel's floor, or the ray enters some pixel at a
-//! normalised height h <= H(c) = 1 - D(c) / Pz (ties block), where D is the biased depth.
+//! Each pixel is a floor at normalised height H(c) = 1 - D(c) / Pz (D: the biased depth);
+//! "at or below the floor" (h <= H, ties block) is inside the solid the map implies. See
+//! [`crate::edge_table::Heightfield`] for the two readings and [`ray_blocked`] for the
+//! per-ray rule.
 
+use crate::edge_table::Heightfield;
 use glam::Vec2;
 
-/// Calls `visit(cell, h)` for each pixel the ray enters, in order, with the cell relative to
+/// Calls `visit(cell, axis, h)` for each pixel the ray enters (axis 0: through a vertical
+/// side, 1: a horizontal one), in order, with the cell relative to
 /// P's pixel and the normalised height at which it enters; stops at `h_stop` or when
 /// `visit` returns false. `offset` is P's position inside its pixel, in [0, 1)^2;
 /// `pz_pitch` is P's depth times the map's pixel pitch.
@@ -27,7 +30,7 @@ pub fn for_each_crossing(
     sample: Vec2,
     pz_pitch: f32,
     h_stop: f32,
-    mut visit: impl FnMut([i32; 2], f32) -> bool,
+    mut visit: impl FnMut([i32; 2], u8, f32) -> bool,
 ) {
     // s at the k-th vertical side: (k - offset.x) * pz_pitch / Lx, computed directly for
     // every side (not accumulated) so every caller gets bit-identical values.
@@ -37,23 +40,23 @@ pub fn for_each_crossing(
     let mut sy = if step_y == 0 { f32::INFINITY } else { (ky as f32 - offset.y) * scale_y };
     let mut cell = [0i32, 0i32];
     loop {
-        let s;
+        let (s, axis);
         if sx <= sy {
             if sx == f32::INFINITY {
                 return;
             }
-            s = sx;
+            (s, axis) = (sx, 0);
             cell[0] += step_x;
             kx += step_x;
             sx = (kx as f32 - offset.x) * scale_x;
         } else {
-            s = sy;
+            (s, axis) = (sy, 1);
             cell[1] += step_y;
             ky += step_y;
             sy = (ky as f32 - offset.y) * scale_y;
         }
         let h = s / (1.0 + s);
-        if h >= h_stop || !visit(cell, h) {
+        if h >= h_stop || !visit(cell, axis, h) {
             return;
         }
     }
@@ -90,4 +93,43 @@ pub fn stop_height(z_min: f32, pz: f32) -> f32 {
 pub fn region_reach(half_size: Vec2, pitch: f32, z_stop: f32, pz: f32) -> [i32; 2] {
     let r = half_size * ((1.0 / z_stop - 1.0 / pz).max(0.0) / pitch);
     [r.x.ceil() as i32 + 1, r.y.ceil() as i32 + 1]
+}
+
+/// Whether one ray is blocked, marched pixel by pixel: the oracle for the edge tables.
+/// `floor(cell)` is the normalised floor height of a pixel relative to P's.
+///
+/// Solid (variant A): blocked iff P starts at or below its own floor or the ray ever enters
+/// a pixel at or below its floor. Shells (variant B): blocked iff the ray rises through a
+/// floor it entered under (INTERSECTFLOOR), or crosses from above one floor to under a
+/// higher one (a front-facing wall, INTERSECTWALL). Plates: floors only. The march ends
+/// above every floor, so a ray still under its last pixel's floor then rises through it.
+#[inline]
+pub fn ray_blocked(
+    offset: Vec2,
+    sample: Vec2,
+    pz_pitch: f32,
+    h_stop: f32,
+    heightfield: Heightfield,
+    floor: impl Fn([i32; 2]) -> f32,
+) -> bool {
+    let h_own = floor([0, 0]);
+    let mut under = h_own >= 0.0; // P itself is at height 0
+    if under && heightfield == Heightfield::Solid {
+        return true;
+    }
+    let mut h_prev_floor = h_own;
+    let mut blocked = false;
+    for_each_crossing(offset, sample, pz_pitch, h_stop, |c, _, h| {
+        let h_floor = floor(c);
+        let through_floor = under && h > h_prev_floor;
+        blocked = match heightfield {
+            Heightfield::Solid => h <= h_floor,
+            Heightfield::Shells => through_floor || (h_prev_floor < h && h <= h_floor),
+            Heightfield::Plates => through_floor,
+        };
+        under = h <= h_floor;
+        h_prev_floor = h_floor;
+        !blocked
+    });
+    blocked || (heightfield != Heightfield::Solid && under)
 }
