@@ -60,9 +60,9 @@ pub struct ShadowsConfig {
 pub enum Preset {
     /// The 2004 sketch: 256^2 map, 4 x 4 x 1 masks, nearest mask.
     Paper,
-    /// The default: 256^2 map, 4 x 4 x 2 masks, trilinear.
+    /// The default: 256^2 map, 4 x 4 x 2 masks, nearest mask, plates.
     Balanced,
-    /// 512^2 map, 8 x 8 x 4 masks, trilinear.
+    /// 512^2 map, 8 x 8 x 4 masks, trilinear, plates.
     Fine,
 }
 
@@ -74,7 +74,7 @@ pub enum HeightfieldName {
     Solid,
     /// Variant B: floors and front-facing walls.
     Shells,
-    /// Floors only (thin plates).
+    /// Floors only (thin plates): the default.
     Plates,
 }
 
@@ -155,7 +155,7 @@ impl EdgeTableConfig {
 
 impl DepthMapConfig {
     pub fn heightfield(&self) -> Heightfield {
-        self.heightfield.unwrap_or(HeightfieldName::Shells).get()
+        self.heightfield.map_or(EdgeTableParams::default().heightfield, HeightfieldName::get)
     }
 
     pub fn params(&self) -> DepthMapParams {
@@ -278,14 +278,14 @@ mod tests {
     fn presets_and_overrides() {
         let p = Path::new("s.toml");
         let c = ShadowsConfig::from_table(
-            &table("method = \"edge_table\"\n[edge_table]\npreset = \"paper\"\ngrid = [2, 2, 1]"),
+            &table("method = \"edge_table\"\n[edge_table]\npreset = \"fine\"\ngrid = [2, 2, 1]"),
             p,
         )
         .unwrap();
         let params = c.edge_table.params();
         assert_eq!(params.grid, [2, 2, 1]);
-        assert_eq!(params.blend, Blend::Nearest);
-        assert_eq!(params.depth_map.resolution, 256);
+        assert_eq!(params.blend, Blend::Trilinear);
+        assert_eq!(params.depth_map.resolution, 512);
         assert_eq!(ShadowsConfig::default().edge_table.params(), EdgeTableParams::balanced());
     }
 }

@@ -33,9 +33,11 @@ pub fn above_horizon(frame: &LightFrame, samples: &[Vec2], p: Vec3, n: Vec3, out
     if all_above {
         return true;
     }
+    // n . (C + Lx x + Ly y - p) > 0, with the sample-independent parts taken out: two
+    // multiply-adds per sample instead of a frame transform.
+    let (a, b, c) = (n.dot(frame.x), n.dot(frame.y), n.dot(frame.origin - p));
     for (r, s) in samples.iter().enumerate() {
-        let w = frame.world_from_light(s.extend(0.0));
-        if n.dot(w - p) <= 0.0 {
+        if a * s.x + b * s.y + c <= 0.0 {
             out[r / 64] &= !(1u64 << (r % 64));
         }
     }

@@ -1,0 +1,193 @@
+//! Accuracy and cost of the depth-map shadow methods against the traced truth, side by side
+//! in one run: the table in the README and in the edge-table issue's closing note.
+//!
+//! ```sh
+//! cargo run --release --example shadow_accuracy -- [--width W] [--height H] [--samples N] SCENE.toml...
+//! ```
+//!
+//! Per scene: `traced` (the truth) and every configuration at the same sample count, 1 spp,
+//! pixel centres. Errors are over pixels that see the light (unshadowed irradiance > 0):
+//! visibility RMSE, RMSE over penumbra pixels (truth strictly between 0.02 and 0.98), 99th
+//! percentile absolute error, leak rate (truth < 0.02, ours > 0.1, over pixels with truth <
+//! 0.02) and false-shadow rate (truth > 0.98, ours < 0.9, over pixels with truth > 0.98).
+//! Shadow cost = shadow_prepare + (render time - render time of `none`).
+
+use renderer::{LightShadowing, RenderSettings, Scene, SceneFile, Traced, TracedParams, Unshadowed, render};
+use shadow_plugin::{Blend, DepthMapParams, DepthMarch, EdgeTable, EdgeTableParams, Heightfield};
+use std::path::PathBuf;
+use std::time::Duration;
+
+struct Row {
+    name: String,
+    cost: Duration,
+    errors: Errors,
+    fallbacks: u64,
+    mask_mb: f64,
+}
+
+#[derive(Default, Clone, Copy)]
+struct Errors {
+    rmse: f64,
+    penumbra_rmse: f64,
+    p99: f64,
+    leak: f64,
+    false_shadow: f64,
+}
+
+fn errors(truth: &[f32], ours: &[f32], lit: &[f32]) -> Errors {
+    let (mut se, mut n, mut pse, mut pn) = (0.0, 0usize, 0.0, 0usize);
+    let (mut dark, mut leaks, mut bright, mut false_shadows) = (0usize, 0usize, 0usize, 0usize);
+    let mut abs = Vec::new();
+    for ((&t, &o), &l) in truth.iter().zip(ours).zip(lit) {
+        if l <= 0.0 || t < 0.0 {
+            continue; // sees no light (or no surface)
+        }
+        let d = (o - t) as f64;
+        se += d * d;
+        n += 1;
+        abs.push(d.abs());
+        if t > 0.02 && t < 0.98 {
+            pse += d * d;
+            pn += 1;
+        }
+        if t < 0.02 {
+            dark += 1;
+            leaks += (o > 0.1) as usize;
+        }
+        if t > 0.98 {
+            bright += 1;
+            false_shadows += (o < 0.9) as usize;
+        }
+    }
+    abs.sort_by(f64::total_cmp);
+    Errors {
+        rmse: (se / n.max(1) as f64).sqrt(),
+        penumbra_rmse: (pse / pn.max(1) as f64).sqrt(),
+        p99: abs.get((abs.len() as f64 * 0.99) as usize).copied().unwrap_or(0.0),
+        leak: leaks as f64 / dark.max(1) as f64,
+        false_shadow: false_shadows as f64 / bright.max(1) as f64,
+    }
+}
+
+fn run(
+    scene: &Scene,
+    make: &dyn Fn() -> Box<dyn LightShadowing>,
+    settings: &RenderSettings,
+) -> renderer::Frame {
+    let mut methods: Vec<_> = scene.lights.iter().map(|_| make()).collect();
+    render(scene, &mut methods, settings, &|_| {}).expect("prepare succeeds")
+}
+
+fn main() {
+    let mut args = std::env::args().skip(1);
+    let (mut width, mut height, mut samples) = (320u32, 240u32, 1024u32);
+    let mut scenes = Vec::new();
+    while let Some(a) = args.next() {
+        let mut num = |name: &str| -> u32 {
+            args.next().and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("{name} takes a number"))
+        };
+        match a.as_str() {
+            "--width" => width = num("--width"),
+            "--height" => height = num("--height"),
+            "--samples" => samples = num("--samples"),
+            _ => scenes.push(PathBuf::from(a)),
+        }
+    }
+    if scenes.is_empty() {
+        scenes.push(PathBuf::from("scenes/default.toml"));
+    }
+    let settings = RenderSettings { width, height, spp: 1, seed: 0 };
+    let et = |res: u32, grid: [u32; 3], blend: Blend, heightfield: Heightfield| EdgeTableParams {
+        depth_map: DepthMapParams { resolution: res, slope_bias: 1.0 },
+        grid,
+        blend,
+        heightfield,
+    };
+    let d = EdgeTableParams::default();
+    let mut configs: Vec<(String, EdgeTableParams)> = vec![("edge_table default".to_string(), d)];
+    for res in [256, 512] {
+        for grid in [[4, 4, 2], [8, 8, 4]] {
+            for blend in [Blend::Nearest, Blend::Trilinear] {
+                configs.push((
+                    format!("edge_table {res} {}x{}x{} {blend:?}", grid[0], grid[1], grid[2]).to_lowercase(),
+                    et(res, grid, blend, d.heightfield),
+                ));
+            }
+        }
+    }
+    for h in [Heightfield::Solid, Heightfield::Shells, Heightfield::Plates] {
+        if h != d.heightfield {
+            configs.push((
+                format!("edge_table default {h:?}").to_lowercase(),
+                EdgeTableParams { heightfield: h, ..d },
+            ));
+        }
+    }
+
+    for path in &scenes {
+        let file = SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let scene = Scene::load(&file, path).unwrap_or_else(|e| panic!("{e}"));
+        let none = run(&scene, &|| Box::new(Unshadowed), &settings);
+        let base = none.render;
+        let lit = &none.visibility[0];
+        let truth = run(&scene, &|| Box::new(Traced::new(TracedParams { samples })), &settings);
+        let cost = |f: &renderer::Frame| f.shadow_prepare + f.render.saturating_sub(base);
+        let mut rows = vec![Row {
+            name: format!("traced {samples}"),
+            cost: cost(&truth),
+            errors: Errors::default(),
+            fallbacks: 0,
+            mask_mb: 0.0,
+        }];
+        let march =
+            run(&scene, &|| Box::new(DepthMarch::new(d.depth_map, d.heightfield, samples)), &settings);
+        rows.push(Row {
+            name: format!("depth_march {} {:?}", d.depth_map.resolution, d.heightfield).to_lowercase(),
+            cost: cost(&march),
+            errors: errors(&truth.visibility[0], &march.visibility[0], lit),
+            fallbacks: march.counters.get("fallbacks").copied().unwrap_or(0),
+            mask_mb: 0.0,
+        });
+        for (name, params) in &configs {
+            let f = run(&scene, &|| Box::new(EdgeTable::new(*params, samples)), &settings);
+            rows.push(Row {
+                name: name.clone(),
+                cost: cost(&f),
+                errors: errors(&truth.visibility[0], &f.visibility[0], lit),
+                fallbacks: f.counters.get("fallbacks").copied().unwrap_or(0),
+                mask_mb: f.counters.get("mask_bytes").copied().unwrap_or(0) as f64 / 1048576.0,
+            });
+        }
+        let points = truth.counters.get("shadow_queries").copied().unwrap_or(0);
+        println!(
+            "\n### {} ({}x{}, {} samples, {} shading points lit, {} triangles)\n",
+            path.display(),
+            width,
+            height,
+            samples,
+            points,
+            scene.stats.triangles
+        );
+        println!(
+            "| method | shadow cost (s) | vs traced | RMSE | penumbra RMSE | p99 | leak | false shadow | fallbacks | masks (MiB) |"
+        );
+        println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        let traced_cost = rows[0].cost.as_secs_f64();
+        for r in &rows {
+            let e = r.errors;
+            println!(
+                "| {} | {:.3} | {:.1}x | {:.4} | {:.4} | {:.3} | {:.2}% | {:.3}% | {} | {:.1} |",
+                r.name,
+                r.cost.as_secs_f64(),
+                traced_cost / r.cost.as_secs_f64().max(1e-9),
+                e.rmse,
+                e.penumbra_rmse,
+                e.p99,
+                100.0 * e.leak,
+                100.0 * e.false_shadow,
+                r.fallbacks,
+                r.mask_mb
+            );
+        }
+    }
+}
