@@ -98,7 +98,7 @@ fn main() {
     }
     let settings = RenderSettings { width, height, spp: 1, seed: 0 };
     let et = |res: u32, grid: [u32; 3], blend: Blend, heightfield: Heightfield| EdgeTableParams {
-        depth_map: DepthMapParams { resolution: res, slope_bias: 1.0 },
+        depth_map: DepthMapParams::new(res),
         grid,
         blend,
         heightfield,
@@ -122,6 +122,11 @@ fn main() {
                 EdgeTableParams { heightfield: h, ..d },
             ));
         }
+    }
+    for slab in [0.0, 4.0, 8.0, 16.0] {
+        let mut p = d;
+        p.depth_map.slab_thickness = slab;
+        configs.push((format!("edge_table default slab {slab}"), p));
     }
 
     for path in &scenes {

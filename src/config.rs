@@ -108,6 +108,8 @@ pub struct EdgeTableConfig {
     /// Slope-scaled depth bias in depth-map pixels.
     pub slope_bias: Option<f32>,
     pub heightfield: Option<HeightfieldName>,
+    /// Slab thickness of the `plates` reading, in depth-map pixel footprints.
+    pub slab_thickness: Option<f32>,
 }
 
 /// `[shadows.depth_march]`.
@@ -117,6 +119,7 @@ pub struct DepthMapConfig {
     pub depth_map: Option<u32>,
     pub slope_bias: Option<f32>,
     pub heightfield: Option<HeightfieldName>,
+    pub slab_thickness: Option<f32>,
 }
 
 /// Bounds checked at the boundary.
@@ -149,6 +152,9 @@ impl EdgeTableConfig {
         if let Some(h) = self.heightfield {
             p.heightfield = h.get();
         }
+        if let Some(t) = self.slab_thickness {
+            p.depth_map.slab_thickness = t;
+        }
         p
     }
 }
@@ -163,6 +169,7 @@ impl DepthMapConfig {
         DepthMapParams {
             resolution: self.depth_map.unwrap_or(d.resolution),
             slope_bias: self.slope_bias.unwrap_or(d.slope_bias),
+            slab_thickness: self.slab_thickness.unwrap_or(d.slab_thickness),
         }
     }
 }
@@ -182,6 +189,9 @@ fn check_depth_map(p: &DepthMapParams, file: &Path, table: &str) -> Result<(), S
     }
     if !(p.slope_bias.is_finite() && p.slope_bias >= 0.0) {
         return Err(SceneError::new(file, format!("{table}.slope_bias"), "must be finite and >= 0"));
+    }
+    if !(p.slab_thickness.is_finite() && p.slab_thickness >= 0.0) {
+        return Err(SceneError::new(file, format!("{table}.slab_thickness"), "must be finite and >= 0"));
     }
     Ok(())
 }

@@ -4,7 +4,7 @@
 //! honoured). Its frustum covers what the camera sees that the light reaches, plus the
 //! filter margin. Depths are stored already biased (see [`DepthMapParams::slope_bias`]).
 
-use crate::march::region_reach;
+use crate::march::{floor_height, region_reach};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::ray::Ray;
 use rayon::prelude::*;
@@ -58,11 +58,25 @@ pub struct DepthMapParams {
     /// surface normal at the texel), plus the scene's ray epsilon. Too little: lit surfaces
     /// shadow themselves (acne); too much: contact shadows detach. 1.0 by measurement.
     pub slope_bias: f32,
+    /// Thickness of each floor's slab, in pixel footprints at its depth, for the `plates`
+    /// reading: a ray is blocked where it passes through a slab, so 0 is infinitely thin
+    /// plates and a few pixels make closed thin objects (chair legs, stems) opaque to rays
+    /// from their own back side while floating occluders keep their inner penumbra.
+    pub slab_thickness: f32,
 }
+
+impl DepthMapParams {
+    pub const fn new(resolution: u32) -> Self {
+        Self { resolution, slope_bias: 1.0, slab_thickness: DEFAULT_SLAB }
+    }
+}
+
+/// The default slab thickness, in pixel footprints (measured: docs/edge_table_accuracy.md).
+pub const DEFAULT_SLAB: f32 = 2.0;
 
 impl Default for DepthMapParams {
     fn default() -> Self {
-        Self { resolution: 256, slope_bias: 1.0 }
+        Self::new(256)
     }
 }
 
@@ -88,6 +102,8 @@ pub struct DepthMap {
     /// The nearest depth of any geometry that may cast onto the receivers (the frustum's
     /// margin is sized for it).
     pub caster_z_near: f32,
+    /// A floor at depth D is a slab down to depth D * (1 + slab) (`plates` reading).
+    pub slab: f32,
     pyramid: MinPyramid,
 }
 
@@ -256,7 +272,8 @@ impl DepthMap {
         });
         let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
         let pyramid = MinPyramid::new(&depth, res as usize);
-        DepthMap { frame, resolution: res, origin, pitch, depth, z_min, caster_z_near, pyramid }
+        let slab = params.slab_thickness * pitch;
+        DepthMap { frame, resolution: res, origin, pitch, depth, z_min, caster_z_near, slab, pyramid }
     }
 
     /// A map over a given heightfield (biased depths, row-major), for tests and tools.
@@ -270,7 +287,7 @@ impl DepthMap {
         assert_eq!(depth.len(), (resolution * resolution) as usize);
         let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
         let pyramid = MinPyramid::new(&depth, resolution as usize);
-        DepthMap { frame, resolution, origin, pitch, depth, z_min, caster_z_near: z_min, pyramid }
+        DepthMap { frame, resolution, origin, pitch, depth, z_min, caster_z_near: z_min, slab: 0.0, pyramid }
     }
 
     /// The depth above which shadow rays from a point at pixel `pixel` and depth `pz` can no
@@ -330,6 +347,13 @@ impl DepthMap {
     pub fn contains(&self, lo: [i32; 2], hi: [i32; 2]) -> bool {
         let n = self.resolution as i32;
         lo[0] >= 0 && lo[1] >= 0 && hi[0] < n && hi[1] < n
+    }
+
+    /// The normalised heights (floor, slab bottom) of pixel (i, j) seen from depth `pz`.
+    #[inline]
+    pub fn heights(&self, i: i32, j: i32, pz: f32) -> (f32, f32) {
+        let d = self.at(i, j);
+        (floor_height(d, pz), floor_height(d * (1.0 + self.slab), pz))
     }
 
     pub fn bytes(&self) -> u64 {

@@ -9,7 +9,7 @@
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
 use crate::edge_table::Heightfield;
-use crate::march::{floor_height, ray_blocked, stop_height};
+use crate::march::{ray_blocked, stop_height};
 use crate::samples;
 use glam::Vec2;
 use renderer::sampling::Rng;
@@ -31,7 +31,7 @@ pub fn march_bits(
     let [i0, j0] = mp.pixel;
     let h_stop = stop_height(z_stop, mp.z);
     let pz_pitch = mp.z * map.pitch;
-    let floor = |c: [i32; 2]| floor_height(map.at(i0 + c[0], j0 + c[1]), mp.z);
+    let floor = |c: [i32; 2]| map.heights(i0 + c[0], j0 + c[1], mp.z);
     for (r, s) in samples.iter().enumerate() {
         if ray_blocked(mp.offset, *s, pz_pitch, h_stop, heightfield, floor) {
             out[r / 64] &= !(1u64 << (r % 64));

@@ -24,6 +24,7 @@
 //! | `blend` | "nearest" / "trilinear" | "nearest" | take the nearest mask, or blend the 8 (4 with one depth level) nearest masks' visibilities |
 //! | `heightfield` | "plates" / "shells" / "solid" | "plates" | how the depth map is read ([`Heightfield`]) |
 //! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
+//! | `slab_thickness` | float | 2.0 | `plates`: each floor is a slab this many pixel footprints thick |
 //!
 //! `samples` (`[shadows]`) is the number of rays per mask (at most 4096).
 //!
@@ -76,7 +77,7 @@ impl EdgeTableParams {
     /// The paper's configuration: 256^2 map, 4 x 4 x 1 masks, nearest mask.
     pub const fn paper() -> Self {
         Self {
-            depth_map: DepthMapParams { resolution: 256, slope_bias: 1.0 },
+            depth_map: DepthMapParams::new(256),
             grid: [4, 4, 1],
             blend: Blend::Nearest,
             heightfield: Heightfield::Shells,
@@ -88,7 +89,7 @@ impl EdgeTableParams {
     /// most 0.02 (monobloc-chair) and mostly by under 0.005, at 3-10x the cost.
     pub const fn balanced() -> Self {
         Self {
-            depth_map: DepthMapParams { resolution: 256, slope_bias: 1.0 },
+            depth_map: DepthMapParams::new(256),
             grid: [4, 4, 2],
             blend: Blend::Nearest,
             heightfield: Heightfield::Plates,
@@ -97,7 +98,7 @@ impl EdgeTableParams {
     /// Finer and slower: 512^2 map, 8 x 8 x 4 masks, trilinear.
     pub const fn fine() -> Self {
         Self {
-            depth_map: DepthMapParams { resolution: 512, slope_bias: 1.0 },
+            depth_map: DepthMapParams::new(512),
             grid: [8, 8, 4],
             blend: Blend::Trilinear,
             heightfield: Heightfield::Plates,
@@ -340,6 +341,12 @@ impl Mask {
         let out = &mut out[..words];
         out.copy_from_slice(&self.full);
         let floor = |c: &Cell| floor_height(map.at(base[0] + c.dx, base[1] + c.dy), pz);
+        // Where a ray must leave a pixel to have passed through its floor: above the floor
+        // itself (shells), or above the bottom of its slab (plates).
+        let exit_height = |c: &Cell, h: f32| match heightfield {
+            Heightfield::Plates => map.heights(base[0] + c.dx, base[1] + c.dy, pz).1,
+            _ => h,
+        };
         let h_own = floor(&self.cells[0]);
         // Below(q) over the crossings under `h_stop` only, as `depth_march` sees them: a mask
         // that marched further (`h_max > h_stop`) also holds crossings at `h_stop` exactly
@@ -415,11 +422,12 @@ impl Mask {
                             stats.lookups += 1;
                         }
                     }
-                    // Out: left at or below the floor.
+                    // Out: left at or below the floor (plates: the slab's bottom).
                     let out_m = &mut out_mask[..words];
                     out_m.copy_from_slice(&self.full);
+                    let h_exit = exit_height(c, h);
                     for &e in c.out_edges.iter().filter(|&&e| e != NONE) {
-                        and(out_m, below(&self.edges[e as usize], h));
+                        and(out_m, below(&self.edges[e as usize], h_exit));
                         stats.lookups += 1;
                     }
                     let mut any = 0u64;

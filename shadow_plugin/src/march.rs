@@ -91,12 +91,15 @@ pub fn stop_height(z_min: f32, pz: f32) -> f32 {
 /// half size `half_size` moves at most this many pixels before it is above depth `z_stop`.
 #[inline]
 pub fn region_reach(half_size: Vec2, pitch: f32, z_stop: f32, pz: f32) -> [i32; 2] {
-    let r = half_size * ((1.0 / z_stop - 1.0 / pz).max(0.0) / pitch);
+    // Capped so that pixel arithmetic on it cannot overflow (a depth of 0 reaches forever;
+    // no map is a million pixels wide).
+    let r = (half_size * ((1.0 / z_stop - 1.0 / pz).max(0.0) / pitch)).min(Vec2::splat(1e6));
     [r.x.ceil() as i32 + 1, r.y.ceil() as i32 + 1]
 }
 
 /// Whether one ray is blocked, marched pixel by pixel: the oracle for the edge tables.
-/// `floor(cell)` is the normalised floor height of a pixel relative to P's.
+/// `floor(cell)` is the normalised (floor, slab bottom) heights of a pixel relative to P's;
+/// only `Plates` reads the slab bottom (it equals the floor for infinitely thin plates).
 ///
 /// Solid (variant A): blocked iff P starts at or below its own floor or the ray ever enters
 /// a pixel at or below its floor. Shells (variant B): blocked iff the ray rises through a
@@ -110,25 +113,28 @@ pub fn ray_blocked(
     pz_pitch: f32,
     h_stop: f32,
     heightfield: Heightfield,
-    floor: impl Fn([i32; 2]) -> f32,
+    floor: impl Fn([i32; 2]) -> (f32, f32),
 ) -> bool {
-    let h_own = floor([0, 0]);
+    let (h_own, bottom_own) = floor([0, 0]);
     let mut under = h_own >= 0.0; // P itself is at height 0
     if under && heightfield == Heightfield::Solid {
         return true;
     }
     let mut h_prev_floor = h_own;
+    let mut h_prev_bottom = bottom_own;
     let mut blocked = false;
     for_each_crossing(offset, sample, pz_pitch, h_stop, |c, _, h| {
-        let h_floor = floor(c);
+        let (h_floor, h_bottom) = floor(c);
         let through_floor = under && h > h_prev_floor;
         blocked = match heightfield {
             Heightfield::Solid => h <= h_floor,
             Heightfield::Shells => through_floor || (h_prev_floor < h && h <= h_floor),
-            Heightfield::Plates => through_floor,
+            // Through the slab: entered at or below its top, left above its bottom.
+            Heightfield::Plates => under && h > h_prev_bottom,
         };
         under = h <= h_floor;
         h_prev_floor = h_floor;
+        h_prev_bottom = h_bottom;
         !blocked
     });
     blocked || (heightfield != Heightfield::Solid && under)

@@ -152,7 +152,14 @@ fn random_map(rng: &mut Random) -> (DepthMap, Vec<f32>) {
             }
         }
     }
-    let map = DepthMap::from_depths(frame(half), origin, pitch, res as u32, depth);
+    let mut map = DepthMap::from_depths(frame(half), origin, pitch, res as u32, depth);
+    // Half the maps read `plates` as slabs (a floor at depth D reaches down to D * (1 +
+    // slab)), the rest as infinitely thin plates. Drawn from a stream of its own so the
+    // maps and points stay those the case counts were measured on.
+    let mut slab_rng = Rng::new(rng.0.clone().next_u64() ^ 0x5eed_51ab);
+    if slab_rng.next_f32() < 0.5 {
+        map.slab = 0.3 * slab_rng.next_f32();
+    }
     (map, ground)
 }
 
