@@ -14,6 +14,13 @@
 //! small changes of the method's parameters do not.
 //!
 //! `cargo test --test hard_cases -- --nocapture` prints every case's metrics.
+//!
+//! The measured values quoted in the bounds' comments were taken with infinitely thin
+//! plates (`slab_thickness = 0`). With the current default (slabs 2 pixels thick) the same
+//! command prints: close light RMSE 0.049, p99 0.13, 0.16% off by > 0.5; grazing floor RMSE
+//! 0.072, p99 0.25, max 0.35; contact feet: box max 0.06, bar max 0; moved/scaled base RMSE
+//! 0.024, p99 0.10; large light RMSE 0.023, p99 0.078, max 0.20; tiny light unchanged. All
+//! within the same bounds.
 
 use penumbra::config::MethodName;
 use penumbra::{RenderArgs, run_render};
