@@ -9,7 +9,7 @@ use crate::config::{MethodName, ShadowsConfig};
 use crate::report::{RunReport, Timings};
 use renderer::output::StagedFiles;
 use renderer::{RenderSettings, Scene, SceneError, SceneFile, render};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 /// The default scene, embedded so that `penumbra` with no arguments works anywhere.
@@ -194,9 +194,4 @@ fn progress_bar(rows: u64, quiet: bool) -> indicatif::ProgressBar {
         .progress_chars("=> "),
     );
     bar
-}
-
-/// The resolved path of a scene file (for tests and tools).
-pub fn scene_dir(scene: &Path) -> PathBuf {
-    scene.parent().map(Path::to_path_buf).unwrap_or_default()
 }

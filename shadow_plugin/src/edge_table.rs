@@ -496,7 +496,6 @@ pub struct EdgeTable {
     samples: u32,
     state: Option<Prepared>,
     fallback: Traced,
-    queries: AtomicU64,
     lookups: AtomicU64,
     early_outs: AtomicU64,
     fallbacks: AtomicU64,
@@ -525,7 +524,6 @@ impl EdgeTable {
             samples,
             state: None,
             fallback: Traced::new(TracedParams { samples }),
-            queries: AtomicU64::new(0),
             lookups: AtomicU64::new(0),
             early_outs: AtomicU64::new(0),
             fallbacks: AtomicU64::new(0),
@@ -670,7 +668,6 @@ impl LightShadowing for EdgeTable {
 
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         let st = self.state.as_ref().expect("prepare() runs before visibility()");
-        self.queries.fetch_add(1, Ordering::Relaxed);
         let map = &st.map;
         let frame = &map.frame;
         let p = frame.light_from_world(q.p);
