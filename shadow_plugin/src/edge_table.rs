@@ -421,6 +421,11 @@ impl Mask {
                             and(in_m, below(&self.edges[e as usize], h));
                             stats.lookups += 1;
                         }
+                        // Only rays that entered under this floor and are not blocked yet can
+                        // change the result: skip the out-sides when there are none.
+                        if in_m.iter().zip(out.iter()).all(|(i, o)| !*i & *o == 0) {
+                            continue;
+                        }
                     }
                     // Out: left at or below the floor (plates: the slab's bottom).
                     let out_m = &mut out_mask[..words];
