@@ -110,6 +110,8 @@ pub struct EdgeTableConfig {
     pub heightfield: Option<HeightfieldName>,
     /// Slab thickness of the `plates` reading, in depth-map pixel footprints.
     pub slab_thickness: Option<f32>,
+    /// Grazing normal offset of lookups, in depth-map pixel footprints.
+    pub normal_offset: Option<f32>,
 }
 
 /// `[shadows.depth_march]`.
@@ -120,6 +122,7 @@ pub struct DepthMapConfig {
     pub slope_bias: Option<f32>,
     pub heightfield: Option<HeightfieldName>,
     pub slab_thickness: Option<f32>,
+    pub normal_offset: Option<f32>,
 }
 
 /// Bounds checked at the boundary.
@@ -155,6 +158,9 @@ impl EdgeTableConfig {
         if let Some(t) = self.slab_thickness {
             p.depth_map.slab_thickness = t;
         }
+        if let Some(t) = self.normal_offset {
+            p.depth_map.normal_offset = t;
+        }
         p
     }
 }
@@ -170,6 +176,7 @@ impl DepthMapConfig {
             resolution: self.depth_map.unwrap_or(d.resolution),
             slope_bias: self.slope_bias.unwrap_or(d.slope_bias),
             slab_thickness: self.slab_thickness.unwrap_or(d.slab_thickness),
+            normal_offset: self.normal_offset.unwrap_or(d.normal_offset),
         }
     }
 }
@@ -189,6 +196,9 @@ fn check_depth_map(p: &DepthMapParams, file: &Path, table: &str) -> Result<(), S
     }
     if !(p.slope_bias.is_finite() && p.slope_bias >= 0.0) {
         return Err(SceneError::new(file, format!("{table}.slope_bias"), "must be finite and >= 0"));
+    }
+    if !(p.normal_offset.is_finite() && p.normal_offset >= 0.0) {
+        return Err(SceneError::new(file, format!("{table}.normal_offset"), "must be finite and >= 0"));
     }
     if !(p.slab_thickness.is_finite() && p.slab_thickness >= 0.0) {
         return Err(SceneError::new(file, format!("{table}.slab_thickness"), "must be finite and >= 0"));

@@ -20,7 +20,9 @@
 //! command prints: close light RMSE 0.049, p99 0.13, 0.16% off by > 0.5; grazing floor RMSE
 //! 0.072, p99 0.25, max 0.35; contact feet: box max 0.06, bar max 0; moved/scaled base RMSE
 //! 0.024, p99 0.10; large light RMSE 0.023, p99 0.078, max 0.20; tiny light unchanged. All
-//! within the same bounds.
+//! within the same bounds. With the grazing normal offset (0.5, the default since) the
+//! close light's RMSE is 0.045, the contact scene has 0.31% of pixels off by > 0.5 (bound
+//! raised to 0.5%, see there), and the grazing wall has no false shadow.
 
 use penumbra::config::MethodName;
 use penumbra::{RenderArgs, run_render};
@@ -490,14 +492,16 @@ fn contact_shadows_have_no_gap() {
     assert!(m.p99 < 0.22, "{m:?}");
     // Measured: mean error +0.005 (the leaky umbra).
     assert!(m.bias.abs() < 0.012, "{m:?}");
-    assert!(m.over_half < 0.003, "{m:?}");
+    // With the grazing normal offset (default 0.5 pixel footprints, which fixed the false
+    // shadow on grazing walls below) 18 pixels (0.31%) are off by more than 0.5, against 6
+    // to 11 without it: the bar's sub-pixel penumbra moves by the offset. Bound 1.6x.
+    assert!(m.over_half < 0.005, "{m:?}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Was a defect (19 of 667 wall pixels off by up to 1.0 without the grazing normal offset:
+/// the wall lay under the floor of the box's top in the map); 0 with it.
 #[test]
-#[ignore = "defect: a box wall lit at 84 deg from its normal, just under the silhouette of the \
-            box's top in the depth map, gets false shadow (19 of 667 wall pixels off by up to \
-            1.0; none at 76 deg or less)"]
 fn wall_lit_at_a_grazing_angle_has_no_false_shadow() {
     let dir = temp_dir("grazing_wall");
     // A 0.5 box lit from 25 deg above the horizon, from nearly straight along +x: its +z wall

@@ -63,16 +63,26 @@ pub struct DepthMapParams {
     /// plates and a few pixels make closed thin objects (chair legs, stems) opaque to rays
     /// from their own back side while floating occluders keep their inner penumbra.
     pub slab_thickness: f32,
+    /// Grazing normal offset, in pixel footprints (see [`DepthMap::lookup_point`]).
+    pub normal_offset: f32,
 }
 
 impl DepthMapParams {
     pub const fn new(resolution: u32) -> Self {
-        Self { resolution, slope_bias: 1.0, slab_thickness: DEFAULT_SLAB }
+        Self {
+            resolution,
+            slope_bias: 1.0,
+            slab_thickness: DEFAULT_SLAB,
+            normal_offset: DEFAULT_NORMAL_OFFSET,
+        }
     }
 }
 
 /// The default slab thickness, in pixel footprints (measured: docs/edge_table_accuracy.md).
 pub const DEFAULT_SLAB: f32 = 2.0;
+
+/// The default grazing normal offset, in pixel footprints.
+pub const DEFAULT_NORMAL_OFFSET: f32 = 0.5;
 
 impl Default for DepthMapParams {
     fn default() -> Self {
@@ -104,6 +114,8 @@ pub struct DepthMap {
     pub caster_z_near: f32,
     /// A floor at depth D is a slab down to depth D * (1 + slab) (`plates` reading).
     pub slab: f32,
+    /// See [`DepthMap::lookup_point`].
+    pub normal_offset: f32,
     pyramid: MinPyramid,
 }
 
@@ -273,7 +285,19 @@ impl DepthMap {
         let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
         let pyramid = MinPyramid::new(&depth, res as usize);
         let slab = params.slab_thickness * pitch;
-        DepthMap { frame, resolution: res, origin, pitch, depth, z_min, caster_z_near, slab, pyramid }
+        let normal_offset = params.normal_offset;
+        DepthMap {
+            frame,
+            resolution: res,
+            origin,
+            pitch,
+            depth,
+            z_min,
+            caster_z_near,
+            slab,
+            normal_offset,
+            pyramid,
+        }
     }
 
     /// A map over a given heightfield (biased depths, row-major), for tests and tools.
@@ -287,7 +311,18 @@ impl DepthMap {
         assert_eq!(depth.len(), (resolution * resolution) as usize);
         let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
         let pyramid = MinPyramid::new(&depth, resolution as usize);
-        DepthMap { frame, resolution, origin, pitch, depth, z_min, caster_z_near: z_min, slab: 0.0, pyramid }
+        DepthMap {
+            frame,
+            resolution,
+            origin,
+            pitch,
+            depth,
+            z_min,
+            caster_z_near: z_min,
+            slab: 0.0,
+            normal_offset: 0.0,
+            pyramid,
+        }
     }
 
     /// The depth above which shadow rays from a point at pixel `pixel` and depth `pz` can no
@@ -316,6 +351,27 @@ impl DepthMap {
         let (lo, hi) =
             ([pixel[0] - reach[0], pixel[1] - reach[1]], [pixel[0] + reach[0], pixel[1] + reach[1]]);
         (z, !self.contains(lo, hi))
+    }
+
+    /// The light-space point at which to look a shading point up: moved along its
+    /// geometric normal by `normal_offset` pixel footprints, scaled by how grazing the light
+    /// is (1 - |n . axis|): a surface the light meets edge-on otherwise falls under the
+    /// floor of the surface beside it (a box wall under the box's top), while surfaces
+    /// facing the light (floors at contact shadows) barely move.
+    #[inline]
+    pub fn lookup_point(&self, p: Vec3, n_geom: Vec3, normal_offset: f32) -> Vec3 {
+        let pl = self.light_from_world(p);
+        if normal_offset == 0.0 || pl.z <= 0.0 {
+            return pl;
+        }
+        let grazing = 1.0 - n_geom.dot(self.frame.z).abs();
+        let shift = normal_offset * grazing * self.pitch * pl.z;
+        self.light_from_world(p + n_geom * shift)
+    }
+
+    #[inline]
+    fn light_from_world(&self, p: Vec3) -> Vec3 {
+        self.frame.light_from_world(p)
     }
 
     /// Where a light-space point falls in the map (None behind or on the light plane).

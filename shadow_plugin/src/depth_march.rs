@@ -86,7 +86,7 @@ impl LightShadowing for DepthMarch {
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         let map = self.map.as_ref().expect("prepare() runs before visibility()");
         let frame = &map.frame;
-        let p = frame.light_from_world(q.p);
+        let p = map.lookup_point(q.p, q.n_geom, map.normal_offset);
         if p.z <= map.z_min {
             self.early_outs.fetch_add(1, Ordering::Relaxed);
             return 1.0; // nearer the light than any surface in the map

@@ -25,6 +25,7 @@
 //! | `heightfield` | "plates" / "shells" / "solid" | "plates" | how the depth map is read ([`Heightfield`]) |
 //! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
 //! | `slab_thickness` | float | 2.0 | `plates`: each floor is a slab this many pixel footprints thick |
+//! | `normal_offset` | float | 0.5 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
 //!
 //! `samples` (`[shadows]`) is the number of rays per mask (at most 4096).
 //!
@@ -675,7 +676,7 @@ impl LightShadowing for EdgeTable {
         let st = self.state.as_ref().expect("prepare() runs before visibility()");
         let map = &st.map;
         let frame = &map.frame;
-        let p = frame.light_from_world(q.p);
+        let p = map.lookup_point(q.p, q.n_geom, map.normal_offset);
         if p.z <= map.z_min {
             self.early_outs.fetch_add(1, Ordering::Relaxed);
             return 1.0;
