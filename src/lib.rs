@@ -14,6 +14,9 @@ use std::time::Instant;
 
 /// The default scene, embedded so that `penumbra` with no arguments works anywhere.
 pub const DEFAULT_SCENE: &str = include_str!("../scenes/default.toml");
+/// Largest width x height x spp accepted.
+pub const MAX_PRIMARY_SAMPLES: u64 = 1 << 26;
+
 /// The name the default scene's errors and outputs go by.
 pub const DEFAULT_SCENE_NAME: &str = "scenes/default.toml";
 
@@ -92,6 +95,14 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
         if v == 0 || v > limit {
             return Err(SceneError::new(&scene_path, flag, format!("must be in 1..={limit}, got {v}")));
         }
+    }
+    // Every primary sample is kept for `prepare` (~100 bytes each): cap the product.
+    if width as u64 * height as u64 * spp as u64 > MAX_PRIMARY_SAMPLES {
+        return Err(SceneError::new(
+            &scene_path,
+            "image.spp",
+            format!("width x height x spp must be at most {MAX_PRIMARY_SAMPLES} (about 6 GB of samples)"),
+        ));
     }
     if spp == 0 || spp > renderer::config::MAX_SPP {
         return Err(SceneError::new(

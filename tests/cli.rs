@@ -188,3 +188,70 @@ fn bad_input_gets_one_line_naming_file_and_key_and_exit_2() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A light low over a floor, the camera looking at floor points far to the side (beyond the
+/// depth map's 76-degree limit) where an occluder's shadow falls: the depth-map methods must
+/// answer those points with traced rays, not call them lit.
+#[test]
+fn points_outside_the_depth_map_fall_back_to_traced_rays() {
+    let dir = temp_dir("outside");
+    let scene = r#"
+[camera]
+position = [4.0, 4.0, 3.0]
+look_at = [4.0, 0.0, 0.0]
+yfov_deg = 40.0
+[image]
+width = 32
+height = 32
+[[light]]
+center = [0.0, 0.5, 0.0]
+u = [0.2, 0.0, 0.0]
+v = [0.0, 0.0, 0.2]
+radiance = [2000.0, 2000.0, 2000.0]
+[[quad]]
+center = [0.0, 0.0, 0.0]
+u = [20.0, 0.0, 0.0]
+v = [0.0, 0.0, -20.0]
+[[quad]]
+center = [2.5, 0.25, 0.0]
+u = [1.0, 0.0, 0.0]
+v = [0.0, 0.0, -1.0]
+[shadows]
+samples = 64
+"#;
+    std::fs::write(dir.join("s.toml"), scene).unwrap();
+    let mut vis = Vec::new();
+    for method in ["traced", "edge_table", "depth_march"] {
+        let out = format!("{method}.png");
+        let o = penumbra(&["render", "s.toml", "--shadows", method, "--aov", "--out", &out], &dir);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let v = image::open(dir.join(format!("{method}.visibility.0.exr"))).unwrap().into_rgb32f().into_raw();
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join(format!("{method}.json"))).unwrap()).unwrap();
+        if method != "traced" {
+            assert!(report["counters"]["fallbacks"].as_u64().unwrap() > 0, "{method}: no fallbacks");
+        }
+        vis.push(v);
+    }
+    let shadowed = |v: &[f32]| v.iter().step_by(3).filter(|&&x| (0.0..0.5).contains(&x)).count();
+    let truth = shadowed(&vis[0]);
+    assert!(truth > 50, "the occluder's shadow is in frame: {truth} pixels");
+    for (k, name) in [(1, "edge_table"), (2, "depth_march")] {
+        // Answered by the same traced rays (per-point seeds), so the shadows agree closely.
+        let n = shadowed(&vis[k]);
+        assert!(n.abs_diff(truth) <= truth / 20, "{name}: {n} shadowed pixels, traced {truth}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_output_blocked_by_a_folder_leaves_nothing_behind() {
+    let dir = temp_dir("blocked");
+    std::fs::write(dir.join("s.toml"), SCENE).unwrap();
+    std::fs::create_dir_all(dir.join("o/x.exr/keep")).unwrap();
+    let o = penumbra(&["render", "s.toml", "--out", "o/x.png"], &dir);
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    let left: Vec<_> = std::fs::read_dir(dir.join("o")).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(left, vec![std::ffi::OsString::from("x.exr")], "{left:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

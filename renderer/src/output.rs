@@ -64,9 +64,17 @@ impl StagedFiles {
     }
 
     /// Renames every staged file into place.
+    /// Renames every staged file into place. A destination that is a folder is refused
+    /// before anything is renamed; if a rename still fails, the staged files not yet renamed
+    /// are removed (by `Drop`).
     pub fn commit(mut self) -> Result<(), String> {
-        for (tmp, dst) in std::mem::take(&mut self.staged) {
-            std::fs::rename(&tmp, &dst).map_err(|e| format!("{}: {e}", dst.display()))?;
+        if let Some((_, dst)) = self.staged.iter().find(|(_, dst)| dst.is_dir()) {
+            return Err(format!("{}: is a folder", dst.display()));
+        }
+        while !self.staged.is_empty() {
+            let (tmp, dst) = &self.staged[0];
+            std::fs::rename(tmp, dst).map_err(|e| format!("{}: {e}", dst.display()))?;
+            self.staged.remove(0);
         }
         Ok(())
     }

@@ -231,8 +231,8 @@ impl DepthMap {
             let (y0, y1) = trimmed_range(&mut ys);
             (Vec2::new(x0, y0), Vec2::new(x1, y1))
         };
-        lo = lo.max(Vec2::splat(-MAX_TAN));
-        hi = hi.min(Vec2::splat(MAX_TAN));
+        lo = lo.clamp(Vec2::splat(-MAX_TAN), Vec2::splat(MAX_TAN));
+        hi = hi.clamp(lo, Vec2::splat(MAX_TAN));
 
         // Casters: the nearest vertex in front of the light whose image could reach a
         // receiver's filter region (conservatively, within the receivers' box grown by the
@@ -381,7 +381,8 @@ impl DepthMap {
             return None;
         }
         let g = (Vec2::new(p_light.x, p_light.y) / p_light.z - self.origin) / self.pitch;
-        if !g.is_finite() {
+        // Far outside the map (or not finite): no pixel; also keeps pixel arithmetic in i32.
+        if !g.is_finite() || g.abs().max_element() > 1e7 {
             return None;
         }
         let cell = g.floor();

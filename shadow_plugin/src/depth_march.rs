@@ -87,14 +87,15 @@ impl LightShadowing for DepthMarch {
         let map = self.map.as_ref().expect("prepare() runs before visibility()");
         let frame = &map.frame;
         let p = map.lookup_point(q.p, q.n_geom, map.normal_offset);
+        // Outside the map there is no data: traced rays answer (counted).
+        let Some(mp) = map.locate(p).filter(|mp| map.contains(mp.pixel, mp.pixel)) else {
+            self.fallbacks.fetch_add(1, Ordering::Relaxed);
+            return self.fallback.visibility(scene, q);
+        };
         if p.z <= map.z_min {
             self.early_outs.fetch_add(1, Ordering::Relaxed);
             return 1.0; // nearer the light than any surface in the map
         }
-        let Some(mp) = map.locate(p) else {
-            self.fallbacks.fetch_add(1, Ordering::Relaxed);
-            return self.fallback.visibility(scene, q);
-        };
         let (z_stop, clipped) = map.stop_depth(mp.pixel, p.z);
         if clipped {
             self.clipped.fetch_add(1, Ordering::Relaxed);

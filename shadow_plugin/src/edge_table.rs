@@ -550,7 +550,9 @@ impl EdgeTable {
         let [gx, gy, gz] = self.params.grid;
         let level_pos = if st.levels.len() > 1 {
             let (lo, hi) = (st.levels[0].ln(), st.levels[st.levels.len() - 1].ln());
-            ((pz.ln() - lo) / (hi - lo) * (gz - 1) as f32).clamp(0.0, (gz - 1) as f32)
+            let t = (pz.ln() - lo) / (hi - lo) * (gz - 1) as f32;
+            // Equal levels (a flat receiver range) give 0/0: use the first level.
+            if t.is_finite() { t.clamp(0.0, (gz - 1) as f32) } else { 0.0 }
         } else {
             0.0
         };
@@ -677,15 +679,16 @@ impl LightShadowing for EdgeTable {
         let map = &st.map;
         let frame = &map.frame;
         let p = map.lookup_point(q.p, q.n_geom, map.normal_offset);
-        if p.z <= map.z_min {
-            self.early_outs.fetch_add(1, Ordering::Relaxed);
-            return 1.0;
-        }
         let fallback = || {
             self.fallbacks.fetch_add(1, Ordering::Relaxed);
             self.fallback.visibility(scene, q)
         };
-        let Some(mp) = map.locate(p) else { return fallback() };
+        // Outside the map there is no data: traced rays answer (counted).
+        let Some(mp) = map.locate(p).filter(|mp| map.contains(mp.pixel, mp.pixel)) else { return fallback() };
+        if p.z <= map.z_min {
+            self.early_outs.fetch_add(1, Ordering::Relaxed);
+            return 1.0;
+        }
         // The masks must reach the region's stop height. A region reaching outside the map
         // sees no occluder there (counted).
         let (z_stop, clipped) = map.stop_depth(mp.pixel, p.z);
