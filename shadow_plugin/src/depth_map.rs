@@ -120,7 +120,7 @@ pub struct DepthMap {
 }
 
 /// Share of the receivers' total irradiance, per side and axis, left out of the frustum.
-pub const RECEIVER_TRIM: f64 = 0.005;
+pub const RECEIVER_TRIM: f64 = 0.001;
 
 /// The range of `(coordinate, weight)` pairs that leaves out `RECEIVER_TRIM` of the total
 /// weight at each end.
