@@ -174,6 +174,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
             seed: args.seed,
             lights: scene.lights.len(),
             triangles: scene.stats.triangles,
+            degenerate_triangles: scene.stats.degenerate_triangles,
             timings_s: Timings {
                 load: scene.stats.load.as_secs_f64(),
                 bvh: scene.stats.bvh.as_secs_f64(),

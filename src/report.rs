@@ -24,6 +24,8 @@ pub struct RunReport {
     pub seed: u64,
     pub lights: usize,
     pub triangles: u64,
+    /// Zero-area triangles dropped at load.
+    pub degenerate_triangles: u64,
     pub timings_s: Timings,
     pub counters: BTreeMap<String, u64>,
     /// Files written, relative to the working directory as given.

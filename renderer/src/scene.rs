@@ -417,11 +417,6 @@ impl Scene {
     pub fn albedo(&self, hit: &SurfaceHit) -> Vec3 {
         self.materials[hit.material as usize].base_color_at(hit.uv, &self.textures).truncate()
     }
-
-    /// Converts a render-space point back to world space.
-    pub fn to_world(&self, p: Vec3) -> DVec3 {
-        p.as_dvec3() + self.world_offset
-    }
 }
 
 impl Geometry {

@@ -67,10 +67,6 @@ impl DepthMarch {
             clipped: AtomicU64::new(0),
         }
     }
-
-    pub fn depth_map(&self) -> Option<&DepthMap> {
-        self.map.as_ref()
-    }
 }
 
 impl LightShadowing for DepthMarch {

@@ -537,14 +537,6 @@ impl EdgeTable {
         }
     }
 
-    pub fn depth_map(&self) -> Option<&DepthMap> {
-        self.state.as_ref().map(|s| &s.map)
-    }
-
-    pub fn masks(&self) -> &[Mask] {
-        self.state.as_ref().map_or(&[], |s| &s.masks)
-    }
-
     /// Weighted masks for a point: up to 8 (mask index, pixel shift, weight).
     fn select(&self, st: &Prepared, offset: Vec2, pz: f32, out: &mut [(usize, [i32; 2], f32); 8]) -> usize {
         let [gx, gy, gz] = self.params.grid;
