@@ -123,11 +123,17 @@ fn main() {
             ));
         }
     }
-    for slab in [0.0, 4.0, 8.0, 16.0] {
+    for slab in [0.0, 4.0] {
         let mut p = d;
         p.depth_map.slab_thickness = slab;
         configs.push((format!("edge_table default slab {slab}"), p));
     }
+    let mut open = d;
+    open.depth_map.closed_volumes = false;
+    configs.push(("edge_table default, closed_volumes off".to_string(), open));
+    let mut offset = d;
+    offset.depth_map.normal_offset = 0.5;
+    configs.push(("edge_table default, normal_offset 0.5".to_string(), offset));
 
     for path in &scenes {
         let file = SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));

@@ -112,6 +112,8 @@ pub struct EdgeTableConfig {
     pub slab_thickness: Option<f32>,
     /// Grazing normal offset of lookups, in depth-map pixel footprints.
     pub normal_offset: Option<f32>,
+    /// `plates`: closed meshes are solid from their front face down to their back face.
+    pub closed_volumes: Option<bool>,
 }
 
 /// `[shadows.depth_march]`.
@@ -123,6 +125,7 @@ pub struct DepthMapConfig {
     pub heightfield: Option<HeightfieldName>,
     pub slab_thickness: Option<f32>,
     pub normal_offset: Option<f32>,
+    pub closed_volumes: Option<bool>,
 }
 
 /// Bounds checked at the boundary.
@@ -161,6 +164,9 @@ impl EdgeTableConfig {
         if let Some(t) = self.normal_offset {
             p.depth_map.normal_offset = t;
         }
+        if let Some(c) = self.closed_volumes {
+            p.depth_map.closed_volumes = c;
+        }
         p
     }
 }
@@ -177,6 +183,7 @@ impl DepthMapConfig {
             slope_bias: self.slope_bias.unwrap_or(d.slope_bias),
             slab_thickness: self.slab_thickness.unwrap_or(d.slab_thickness),
             normal_offset: self.normal_offset.unwrap_or(d.normal_offset),
+            closed_volumes: self.closed_volumes.unwrap_or(d.closed_volumes),
         }
     }
 }

@@ -35,6 +35,10 @@ pub struct SurfaceHit {
     pub material: u32,
     /// Index into the BVH-ordered triangle arrays.
     pub triangle: u32,
+    /// Whether the ray met the triangle's front (the side its counter-clockwise winding
+    /// faces, as glTF defines it). Closed meshes are entered through front faces and left
+    /// through back faces, which is how a depth map tells their interiors.
+    pub front_face: bool,
 }
 
 /// The scene-scaled epsilon rule for ray origins and shadow-ray ends, written once.
@@ -371,7 +375,8 @@ impl Scene {
         let p = Vec3::from(ray.origin + hit.t * ray.direction);
         let d = Vec3::from(ray.direction);
         let mut n_geom = Vec3::from((tri.v1 - tri.v0).cross(tri.v2 - tri.v0)).normalize();
-        if n_geom.dot(d) > 0.0 {
+        let front_face = n_geom.dot(d) < 0.0;
+        if !front_face {
             n_geom = -n_geom;
         }
         let sh = &self.shading[slot];
@@ -390,6 +395,7 @@ impl Scene {
             uv: self.uv_at(slot, b1, b2),
             material: sh.material,
             triangle: slot as u32,
+            front_face,
         })
     }
 

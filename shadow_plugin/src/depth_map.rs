@@ -65,6 +65,11 @@ pub struct DepthMapParams {
     pub slab_thickness: f32,
     /// Grazing normal offset, in pixel footprints (see [`DepthMap::lookup_point`]).
     pub normal_offset: f32,
+    /// Read closed meshes as solid (`plates`): where the light's ray through a pixel enters
+    /// a surface through its front face and next meets a back face, the pixel's slab reaches
+    /// down to that back face (a second depth layer), so a chair seat or a fox's leg blocks
+    /// the rays that pass under its top surface. Open surfaces keep `slab_thickness`.
+    pub closed_volumes: bool,
 }
 
 impl DepthMapParams {
@@ -74,6 +79,7 @@ impl DepthMapParams {
             slope_bias: 1.0,
             slab_thickness: DEFAULT_SLAB,
             normal_offset: DEFAULT_NORMAL_OFFSET,
+            closed_volumes: true,
         }
     }
 }
@@ -82,7 +88,7 @@ impl DepthMapParams {
 pub const DEFAULT_SLAB: f32 = 2.0;
 
 /// The default grazing normal offset, in pixel footprints.
-pub const DEFAULT_NORMAL_OFFSET: f32 = 0.5;
+pub const DEFAULT_NORMAL_OFFSET: f32 = 1.0;
 
 impl Default for DepthMapParams {
     fn default() -> Self {
@@ -94,6 +100,12 @@ impl Default for DepthMapParams {
 /// Beyond it one map cannot keep useful resolution; points whose filter region would need
 /// more fall back to traced rays.
 pub const MAX_TAN: f32 = 4.0;
+
+/// How many closed meshes stacked on each other one pixel's slab may span.
+const MAX_STACKED_SOLIDS: usize = 4;
+
+/// Steepest surface slope under which `closed_volumes` thickens a pixel's slab.
+const MAX_SOLID_SLOPE: f32 = 1.0;
 
 /// Steepest surface slope (tan of the angle to the view ray) the bias accounts for.
 const MAX_SLOPE: f32 = 8.0;
@@ -112,8 +124,10 @@ pub struct DepthMap {
     /// The nearest depth of any geometry that may cast onto the receivers (the frustum's
     /// margin is sized for it).
     pub caster_z_near: f32,
-    /// A floor at depth D is a slab down to depth D * (1 + slab) (`plates` reading).
-    pub slab: f32,
+    /// Biased depth of the bottom of each pixel's slab (`plates` reading): at least the
+    /// floor's depth times (1 + `slab_thickness` x pitch), deeper where a closed mesh's back
+    /// face lies below its front face (see [`DepthMapParams::closed_volumes`]).
+    pub bottom: Vec<f32>,
     /// See [`DepthMap::lookup_point`].
     pub normal_offset: f32,
     pyramid: MinPyramid,
@@ -261,30 +275,68 @@ impl DepthMap {
         let pitch = side / (res as f32 - 2.0).max(1.0);
         let origin = centre - Vec2::splat(0.5 * pitch * res as f32);
 
+        let slab = params.slab_thickness * pitch;
         let mut depth = vec![f32::INFINITY; (res * res) as usize];
-        depth.par_chunks_mut(res as usize).enumerate().for_each(|(j, row)| {
-            for (i, d) in row.iter_mut().enumerate() {
-                let img = origin + pitch * Vec2::new(i as f32 + 0.5, j as f32 + 0.5);
-                // Direction with light-space z = 1: the ray's t is then the planar depth.
-                let dir = frame.x * img.x + frame.y * img.y + frame.z;
-                let ray = Ray::new(Vec3A::from(frame.origin), Vec3A::from(dir), 2.0 * eps, f32::INFINITY);
-                if let Some(hit) = scene.intersect(ray) {
-                    // Planar depth over the image is z = c / (n . (u, v, 1)) for a plane with
-                    // light-frame normal n, so one pixel changes it by about
-                    // pitch * z * |n_xy| / |n . (u, v, 1)|: zero for surfaces facing the
-                    // light squarely, large for grazing ones (capped at MAX_SLOPE).
-                    let z = hit.t;
-                    let n =
-                        Vec3::new(hit.n_geom.dot(frame.x), hit.n_geom.dot(frame.y), hit.n_geom.dot(frame.z));
-                    let facing = (n.x * img.x + n.y * img.y + n.z).abs();
-                    let slope = (n.truncate().length() / facing.max(1e-12)).min(MAX_SLOPE);
-                    *d = z + params.slope_bias * pitch * z * slope + eps;
+        let mut bottom = vec![f32::INFINITY; (res * res) as usize];
+        depth.par_chunks_mut(res as usize).zip(bottom.par_chunks_mut(res as usize)).enumerate().for_each(
+            |(j, (row, bottom_row))| {
+                for (i, (d, b)) in row.iter_mut().zip(bottom_row.iter_mut()).enumerate() {
+                    let img = origin + pitch * Vec2::new(i as f32 + 0.5, j as f32 + 0.5);
+                    // Direction with light-space z = 1: the ray's t is then the planar depth.
+                    let dir = frame.x * img.x + frame.y * img.y + frame.z;
+                    let ray = Ray::new(Vec3A::from(frame.origin), Vec3A::from(dir), 2.0 * eps, f32::INFINITY);
+                    if let Some(hit) = scene.intersect(ray) {
+                        // Planar depth over the image is z = c / (n . (u, v, 1)) for a plane with
+                        // light-frame normal n, so one pixel changes it by about
+                        // pitch * z * |n_xy| / |n . (u, v, 1)|: zero for surfaces facing the
+                        // light squarely, large for grazing ones (capped at MAX_SLOPE).
+                        let z = hit.t;
+                        let n = Vec3::new(
+                            hit.n_geom.dot(frame.x),
+                            hit.n_geom.dot(frame.y),
+                            hit.n_geom.dot(frame.z),
+                        );
+                        let facing = (n.x * img.x + n.y * img.y + n.z).abs();
+                        let slope = (n.truncate().length() / facing.max(1e-12)).min(MAX_SLOPE);
+                        *d = z + params.slope_bias * pitch * z * slope + eps;
+                        *b = *d * (1.0 + slab);
+                        // The second layer: the next surface along the same ray. A back face
+                        // there means the ray was inside a closed mesh from z to it (glTF meshes
+                        // wind their front faces outwards); anything else is an open surface.
+                        // Solids stacked within a slab of each other (a ball resting on a
+                        // seat) are one: the seat under the ball is hidden from the map, and
+                        // rays passing under the ball's bottom would otherwise leak through it.
+                        // Only under surfaces that face the light (slope <= 1, within 45 deg): the
+                        // depth of a surface the light grazes steps steeply from pixel to pixel,
+                        // so rays leaving it dip under its neighbours' floors and would stay
+                        // blocked in a thick slab (measured: false shadows on a grazed wall).
+                        if params.closed_volumes && hit.front_face && slope <= MAX_SOLID_SLOPE {
+                            let mut from = z;
+                            for _ in 0..MAX_STACKED_SOLIDS {
+                                let inside =
+                                    Ray::new(ray.origin, ray.direction, from + 2.0 * eps, f32::INFINITY);
+                                let Some(exit) = scene.intersect(inside).filter(|h| !h.front_face) else {
+                                    break;
+                                };
+                                *b = b.max(exit.t + eps);
+                                let beyond =
+                                    Ray::new(ray.origin, ray.direction, exit.t + 2.0 * eps, f32::INFINITY);
+                                match scene.intersect(beyond) {
+                                    Some(next)
+                                        if next.front_face && next.t <= exit.t * (1.0 + slab) + eps =>
+                                    {
+                                        from = next.t
+                                    }
+                                    _ => break,
+                                }
+                            }
+                        }
+                    }
                 }
-            }
-        });
+            },
+        );
         let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
         let pyramid = MinPyramid::new(&depth, res as usize);
-        let slab = params.slab_thickness * pitch;
         let normal_offset = params.normal_offset;
         DepthMap {
             frame,
@@ -294,7 +346,7 @@ impl DepthMap {
             depth,
             z_min,
             caster_z_near,
-            slab,
+            bottom,
             normal_offset,
             pyramid,
         }
@@ -316,13 +368,21 @@ impl DepthMap {
             resolution,
             origin,
             pitch,
+            bottom: depth.clone(),
             depth,
             z_min,
             caster_z_near: z_min,
-            slab: 0.0,
             normal_offset: 0.0,
             pyramid,
         }
+    }
+
+    /// The same map with its slabs reaching down to `bottom` (biased depths, row-major; each
+    /// at least its floor's depth), for tests and tools.
+    pub fn with_bottoms(mut self, bottom: Vec<f32>) -> Self {
+        assert_eq!(bottom.len(), self.depth.len());
+        self.bottom = bottom.iter().zip(&self.depth).map(|(b, d)| b.max(*d)).collect();
+        self
     }
 
     /// The depth above which shadow rays from a point at pixel `pixel` and depth `pz` can no
@@ -409,11 +469,15 @@ impl DepthMap {
     /// The normalised heights (floor, slab bottom) of pixel (i, j) seen from depth `pz`.
     #[inline]
     pub fn heights(&self, i: i32, j: i32, pz: f32) -> (f32, f32) {
-        let d = self.at(i, j);
-        (floor_height(d, pz), floor_height(d * (1.0 + self.slab), pz))
+        let n = self.resolution as i32;
+        if i < 0 || j < 0 || i >= n || j >= n {
+            return (f32::NEG_INFINITY, f32::NEG_INFINITY);
+        }
+        let k = (j * n + i) as usize;
+        (floor_height(self.depth[k], pz), floor_height(self.bottom[k], pz))
     }
 
     pub fn bytes(&self) -> u64 {
-        (self.depth.len() * std::mem::size_of::<f32>()) as u64
+        ((self.depth.len() + self.bottom.len()) * std::mem::size_of::<f32>()) as u64
     }
 }

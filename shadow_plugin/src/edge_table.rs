@@ -25,7 +25,8 @@
 //! | `heightfield` | "plates" / "shells" / "solid" | "plates" | how the depth map is read ([`Heightfield`]) |
 //! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
 //! | `slab_thickness` | float | 2.0 | `plates`: each floor is a slab this many pixel footprints thick |
-//! | `normal_offset` | float | 0.5 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
+//! | `normal_offset` | float | 1.0 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
+//! | `closed_volumes` | bool | true | `plates`: a closed mesh is solid from its front face down to its back face (a second depth layer) |
 //!
 //! `samples` (`[shadows]`) is the number of rays per mask (at most 4096).
 //!
@@ -66,8 +67,8 @@ pub enum Blend {
 pub struct EdgeTableParams {
     pub depth_map: DepthMapParams,
     /// Masks over (sub-pixel x, sub-pixel y, depth). Sub-pixel samples are cell-centred,
-    /// (a + 1/2) / n; depth levels are spaced uniformly in log depth over the receivers'
-    /// range.
+    /// (a + 1/2) / n; depth levels are at the (k + 1/2) / n quantiles of the depths of the
+    /// receivers the light reaches.
     pub grid: [u32; 3],
     pub blend: Blend,
     /// How the depth map's heightfield is read (variant A or B).
@@ -540,14 +541,7 @@ impl EdgeTable {
     /// Weighted masks for a point: up to 8 (mask index, pixel shift, weight).
     fn select(&self, st: &Prepared, offset: Vec2, pz: f32, out: &mut [(usize, [i32; 2], f32); 8]) -> usize {
         let [gx, gy, gz] = self.params.grid;
-        let level_pos = if st.levels.len() > 1 {
-            let (lo, hi) = (st.levels[0].ln(), st.levels[st.levels.len() - 1].ln());
-            let t = (pz.ln() - lo) / (hi - lo) * (gz - 1) as f32;
-            // Equal levels (a flat receiver range) give 0/0: use the first level.
-            if t.is_finite() { t.clamp(0.0, (gz - 1) as f32) } else { 0.0 }
-        } else {
-            0.0
-        };
+        let level_pos = level_position(&st.levels, pz);
         let index = |a: i32, b: i32, k: u32| -> (usize, [i32; 2]) {
             let (sx, ax) = (a.div_euclid(gx as i32), a.rem_euclid(gx as i32));
             let (sy, ay) = (b.div_euclid(gy as i32), b.rem_euclid(gy as i32));
@@ -590,6 +584,22 @@ impl EdgeTable {
     }
 }
 
+/// Where depth `pz` falls among the (ascending) depth levels: k + f between levels k and
+/// k + 1, linear in log depth, clamped to the first and last level.
+fn level_position(levels: &[f32], pz: f32) -> f32 {
+    let k = levels.partition_point(|&l| l <= pz);
+    if k == 0 {
+        return 0.0;
+    }
+    if k == levels.len() {
+        return (levels.len() - 1) as f32;
+    }
+    let (lo, hi) = (levels[k - 1], levels[k]);
+    let f = (pz / lo).ln() / (hi / lo).ln();
+    // Equal levels (many receivers at one depth) give 0/0: use the lower one.
+    (k - 1) as f32 + if f.is_finite() { f.clamp(0.0, 1.0) } else { 0.0 }
+}
+
 impl LightShadowing for EdgeTable {
     fn name(&self) -> &'static str {
         "edge_table"
@@ -598,24 +608,32 @@ impl LightShadowing for EdgeTable {
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
         self.fallback.prepare(ctx)?;
         let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map);
-        // Depth levels over the receivers the light reaches: uniform in log depth.
-        let (mut z_lo, mut z_hi) = (f32::INFINITY, 0.0f32);
-        for v in ctx.visible {
-            let z = map.frame.light_from_world(v.p).z;
-            if z > map.z_min {
-                z_lo = z_lo.min(z);
-                z_hi = z_hi.max(z);
-            }
-        }
-        if z_lo > z_hi {
-            (z_lo, z_hi) = (map.z_min.max(1e-6) * 2.0, map.z_min.max(1e-6) * 2.0);
-        }
+        // Depth levels at quantiles of the receivers' log depths: level k at the (k + 1/2) /
+        // gz quantile of the points the light reaches. Receivers cluster (a floor facing the
+        // light has one depth), and a mask serves a point exactly only at its own depth: the
+        // ray footprints of a point at depth z read through a mask built at z0 are off by
+        // z0 / z. Measured against levels at the centres of equal log-depth bins and at the
+        // range's ends: see ARCHITECTURE.md.
+        let mut log_depths: Vec<f32> = ctx
+            .visible
+            .iter()
+            .map(|v| map.frame.light_from_world(v.p).z)
+            .filter(|&z| z > map.z_min && z.is_finite())
+            .map(f32::ln)
+            .collect();
+        log_depths.sort_unstable_by(f32::total_cmp);
+        let fallback_z = map.z_min.max(1e-6) * 2.0;
+        let z_hi = log_depths.last().map_or(fallback_z, |l| l.exp());
         let [gx, gy, gz] = self.params.grid;
-        let levels: Vec<f32> = if gz == 1 {
-            vec![(z_lo * z_hi).sqrt()]
-        } else {
-            (0..gz).map(|k| (z_lo.ln() + (z_hi / z_lo).ln() * k as f32 / (gz - 1) as f32).exp()).collect()
-        };
+        let levels: Vec<f32> = (0..gz)
+            .map(|k| {
+                if log_depths.is_empty() {
+                    return fallback_z;
+                }
+                let q = ((k as f32 + 0.5) / gz as f32 * log_depths.len() as f32) as usize;
+                log_depths[q.min(log_depths.len() - 1)].exp()
+            })
+            .collect();
         // Each mask marches far enough for the deepest point it serves.
         let serve_hi: Vec<f32> = (0..gz as usize)
             .map(|k| match self.params.blend {

@@ -152,14 +152,28 @@ fn random_map(rng: &mut Random) -> (DepthMap, Vec<f32>) {
             }
         }
     }
-    let mut map = DepthMap::from_depths(frame(half), origin, pitch, res as u32, depth);
     // Half the maps read `plates` as slabs (a floor at depth D reaches down to D * (1 +
-    // slab)), the rest as infinitely thin plates. Drawn from a stream of its own so the
-    // maps and points stay those the case counts were measured on.
+    // slab)), a quarter of those with a thickness of its own per pixel (closed volumes), the
+    // rest as infinitely thin plates. Drawn from a stream of its own so the maps and points
+    // stay those the case counts were measured on.
     let mut slab_rng = Rng::new(rng.0.clone().next_u64() ^ 0x5eed_51ab);
-    if slab_rng.next_f32() < 0.5 {
-        map.slab = 0.3 * slab_rng.next_f32();
-    }
+    let bottoms: Option<Vec<f32>> = if slab_rng.next_f32() < 0.5 {
+        let slab = 0.3 * slab_rng.next_f32();
+        let per_pixel = slab_rng.next_f32() < 0.25;
+        Some(
+            depth
+                .iter()
+                .map(|d| d * (1.0 + if per_pixel { 2.0 * slab * slab_rng.next_f32() } else { slab }))
+                .collect(),
+        )
+    } else {
+        None
+    };
+    let map = DepthMap::from_depths(frame(half), origin, pitch, res as u32, depth);
+    let map = match bottoms {
+        Some(b) => map.with_bottoms(b),
+        None => map,
+    };
     (map, ground)
 }
 
