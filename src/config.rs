@@ -4,7 +4,7 @@
 use renderer::SceneError;
 use renderer::config::deserialize_value;
 use serde::Deserialize;
-use shadow_plugin::{Blend, DepthMapParams, EdgeTableParams, Heightfield};
+use shadow_plugin::{Blend, DepthMapParams, EdgeTableParams, Heightfield, PcssParams};
 use std::path::Path;
 
 /// Shadow methods, as the scene file and `--shadows` spell them.
@@ -21,6 +21,9 @@ pub enum MethodName {
     EdgeTable,
     /// Each shadow ray marched through the same depth map (walls and floors).
     DepthMarch,
+    /// Percentage-closer soft shadows (Fernando 2005) on the same depth map: the real-time
+    /// baseline.
+    Pcss,
 }
 
 impl MethodName {
@@ -30,6 +33,7 @@ impl MethodName {
             MethodName::None => "none",
             MethodName::EdgeTable => "edge_table",
             MethodName::DepthMarch => "depth_march",
+            MethodName::Pcss => "pcss",
         }
     }
 }
@@ -52,6 +56,8 @@ pub struct ShadowsConfig {
     pub edge_table: EdgeTableConfig,
     #[serde(default)]
     pub depth_march: DepthMapConfig,
+    #[serde(default)]
+    pub pcss: PcssConfig,
 }
 
 /// Named edge-table presets (`shadow_plugin::EdgeTableParams`).
@@ -126,6 +132,39 @@ pub struct DepthMapConfig {
     pub slab_thickness: Option<f32>,
     pub normal_offset: Option<f32>,
     pub closed_volumes: Option<bool>,
+}
+
+/// `[shadows.pcss]`: any of `shadow_plugin::PcssParams`' defaults overridden.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PcssConfig {
+    /// Depth-map pixels per side.
+    pub depth_map: Option<u32>,
+    /// Light samples read by the blocker search.
+    pub blocker_samples: Option<u32>,
+    /// Slope-scaled depth bias in depth-map pixels.
+    pub slope_bias: Option<f32>,
+    /// Grazing normal offset of lookups, in depth-map pixel footprints.
+    pub normal_offset: Option<f32>,
+}
+
+impl PcssConfig {
+    pub fn params(&self) -> PcssParams {
+        let mut p = PcssParams::default();
+        if let Some(n) = self.depth_map {
+            p.depth_map.resolution = n;
+        }
+        if let Some(n) = self.blocker_samples {
+            p.blocker_samples = n;
+        }
+        if let Some(b) = self.slope_bias {
+            p.depth_map.slope_bias = b;
+        }
+        if let Some(t) = self.normal_offset {
+            p.depth_map.normal_offset = t;
+        }
+        p
+    }
 }
 
 /// Bounds checked at the boundary.
@@ -224,6 +263,7 @@ impl Default for ShadowsConfig {
             samples: DEFAULT_SAMPLES,
             edge_table: EdgeTableConfig::default(),
             depth_march: DepthMapConfig::default(),
+            pcss: PcssConfig::default(),
         }
     }
 }
@@ -241,7 +281,9 @@ impl ShadowsConfig {
     /// sample count came from (the scene key or the CLI flag).
     pub fn validate(&self, file: &Path, samples_key: &str) -> Result<(), SceneError> {
         let max = match self.method {
-            MethodName::EdgeTable | MethodName::DepthMarch => shadow_plugin::bits::MAX_SAMPLES as u32,
+            MethodName::EdgeTable | MethodName::DepthMarch | MethodName::Pcss => {
+                shadow_plugin::bits::MAX_SAMPLES as u32
+            }
             _ => MAX_SAMPLES,
         };
         if self.samples == 0 || self.samples > max {
@@ -260,7 +302,18 @@ impl ShadowsConfig {
                 format!("each entry in 1..=64 and at most {MAX_MASKS} masks, got {:?}", et.grid),
             ));
         }
-        check_depth_map(&self.depth_march.params(), file, "shadows.depth_march")
+        check_depth_map(&self.depth_march.params(), file, "shadows.depth_march")?;
+        let pcss = self.pcss.params();
+        check_depth_map(&pcss.depth_map, file, "shadows.pcss")?;
+        let max_blockers = shadow_plugin::bits::MAX_SAMPLES as u32;
+        if !(1..=max_blockers).contains(&pcss.blocker_samples) {
+            return Err(SceneError::new(
+                file,
+                "shadows.pcss.blocker_samples",
+                format!("must be in 1..={max_blockers}, got {}", pcss.blocker_samples),
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -314,5 +367,37 @@ mod tests {
         assert_eq!(params.blend, Blend::Trilinear);
         assert_eq!(params.depth_map.resolution, 512);
         assert_eq!(ShadowsConfig::default().edge_table.params(), EdgeTableParams::balanced());
+    }
+
+    #[test]
+    fn pcss_parses_and_bad_pcss_keys_are_named() {
+        let p = Path::new("s.toml");
+        let c = ShadowsConfig::from_table(
+            &table("method = \"pcss\"\nsamples = 1024\n[pcss]\ndepth_map = 512\nblocker_samples = 64"),
+            p,
+        )
+        .unwrap();
+        assert_eq!((c.method, c.samples, c.method.as_str()), (MethodName::Pcss, 1024, "pcss"));
+        let params = c.pcss.params();
+        assert_eq!((params.depth_map.resolution, params.blocker_samples), (512, 64));
+        assert_eq!(params.depth_map.slope_bias, DepthMapParams::default().slope_bias);
+        assert_eq!(ShadowsConfig::default().pcss.params(), PcssParams::default());
+
+        let e = ShadowsConfig::from_table(&table("[pcss]\nblocker_sample = 8"), p).unwrap_err();
+        assert_eq!(e.key, "shadows.pcss.blocker_sample", "{e}");
+        let e = ShadowsConfig::from_table(&table("[pcss]\nblocker_samples = 0"), p).unwrap_err();
+        assert_eq!(e.key, "shadows.pcss.blocker_samples", "{e}");
+        let e = ShadowsConfig::from_table(&table("[pcss]\nblocker_samples = 4097"), p).unwrap_err();
+        assert_eq!(e.key, "shadows.pcss.blocker_samples", "{e}");
+        let e = ShadowsConfig::from_table(&table("[pcss]\ndepth_map = 2"), p).unwrap_err();
+        assert_eq!(e.key, "shadows.pcss.depth_map", "{e}");
+        let e = ShadowsConfig::from_table(&table("[pcss]\nslope_bias = -1.0"), p).unwrap_err();
+        assert_eq!(e.key, "shadows.pcss.slope_bias", "{e}");
+        let e = ShadowsConfig::from_table(&table("method = \"pcss\"\nsamples = 8192"), p).unwrap_err();
+        assert_eq!(e.key, "shadows.samples", "{e}");
+        // The PCSS keys are checked whichever method runs, like the other tables'.
+        let e = ShadowsConfig::from_table(&table("method = \"traced\"\n[pcss]\nnormal_offset = nan"), p)
+            .unwrap_err();
+        assert_eq!(e.key, "shadows.pcss.normal_offset", "{e}");
     }
 }

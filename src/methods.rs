@@ -2,7 +2,7 @@
 
 use crate::config::{MethodName, ShadowsConfig};
 use renderer::{LightShadowing, Traced, TracedParams, Unshadowed};
-use shadow_plugin::{DepthMarch, EdgeTable};
+use shadow_plugin::{DepthMarch, EdgeTable, Pcss};
 
 /// A fresh, unprepared method for one light.
 pub fn build_shadowing(config: &ShadowsConfig) -> Box<dyn LightShadowing> {
@@ -15,5 +15,6 @@ pub fn build_shadowing(config: &ShadowsConfig) -> Box<dyn LightShadowing> {
             config.depth_march.heightfield(),
             config.samples,
         )),
+        MethodName::Pcss => Box::new(Pcss::new(config.pcss.params(), config.samples)),
     }
 }
