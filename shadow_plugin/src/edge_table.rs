@@ -584,6 +584,25 @@ impl EdgeTable {
     }
 }
 
+/// Most bytes of masks one light may hold: half the memory available when the edge table
+/// is prepared (Linux's `MemAvailable`), at most 16 GiB; 4 GiB where that is unknown.
+/// `PENUMBRA_MASK_BUDGET_MIB` overrides it.
+fn mask_memory_budget() -> u64 {
+    if let Some(mib) = std::env::var("PENUMBRA_MASK_BUDGET_MIB").ok().and_then(|v| v.parse::<u64>().ok()) {
+        return mib << 20;
+    }
+    let available_kib = std::fs::read_to_string("/proc/meminfo").ok().and_then(|m| {
+        m.lines()
+            .find_map(|l| l.strip_prefix("MemAvailable:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+    });
+    match available_kib {
+        Some(kib) => (kib << 10) / 2,
+        None => 4 << 30,
+    }
+    .min(16 << 30)
+}
+
 /// Where depth `pz` falls among the (ascending) depth levels: k + f between levels k and
 /// k + 1, linear in log depth, clamped to the first and last level.
 fn level_position(levels: &[f32], pz: f32) -> f32 {
@@ -665,9 +684,18 @@ impl LightShadowing for EdgeTable {
         let z_min = map.z_min;
         let seed = ctx.seed;
         let light_index = ctx.light_index as u64;
-        let masks: Vec<Mask> = (0..(gx * gy * gz) as usize)
+        // Mask memory grows with grid x samples x filter-region size; a grid the machine
+        // cannot hold is refused (an error naming the parameters) rather than swapped or
+        // killed. Checked as masks are built: once the total passes the budget the rest are
+        // skipped, so the overshoot is at most one mask per thread.
+        let budget = mask_memory_budget();
+        let built = AtomicU64::new(0);
+        let masks: Vec<Option<Mask>> = (0..(gx * gy * gz) as usize)
             .into_par_iter()
             .map(|m| {
+                if built.load(Ordering::Relaxed) > budget {
+                    return None;
+                }
                 let (ax, ay, k) = (m as u32 % gx, (m as u32 / gx) % gy, m as u32 / (gx * gy));
                 let offset = Vec2::new((ax as f32 + 0.5) / gx as f32, (ay as f32 + 0.5) / gy as f32);
                 let mut s = vec![Vec2::ZERO; n];
@@ -677,9 +705,25 @@ impl LightShadowing for EdgeTable {
                     &mut Rng::new(stream_seed(&[seed, light_index, m as u64, 3])),
                 );
                 let depth = levels[k as usize];
-                Mask::build(offset, depth, s, pitch, stop_height(z_min, serve_hi[k as usize]).min(h_cap))
+                let mask =
+                    Mask::build(offset, depth, s, pitch, stop_height(z_min, serve_hi[k as usize]).min(h_cap));
+                built.fetch_add(mask.bytes(), Ordering::Relaxed);
+                Some(mask)
             })
             .collect();
+        let total = built.load(Ordering::Relaxed);
+        let Some(masks) = masks.into_iter().collect::<Option<Vec<Mask>>>().filter(|_| total <= budget) else {
+            return Err(ShadowError {
+                method: "edge_table",
+                message: format!(
+                    "the masks need more than {} MiB (grid {:?} x {} samples); use a smaller grid, \
+                     fewer samples or a smaller depth map",
+                    budget >> 20,
+                    self.params.grid,
+                    self.samples
+                ),
+            });
+        };
         self.state = Some(Prepared { map, masks, levels });
         Ok(())
     }
