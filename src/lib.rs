@@ -1,6 +1,7 @@
 //! The `penumbra` command line: the composition root, the one place that knows every shadow
 //! method and maps the scene file's `[shadows]` table to plugins.
 
+pub mod bench;
 pub mod config;
 pub mod methods;
 pub mod report;

@@ -1,6 +1,7 @@
 //! `penumbra`: render a scene (or, with no arguments, the embedded default scene).
 
 use clap::{Parser, Subcommand};
+use penumbra::bench::{BenchArgs, run_bench};
 use penumbra::{RenderArgs, run_render};
 use std::process::ExitCode;
 
@@ -19,12 +20,27 @@ struct Cli {
 enum Command {
     /// Render a scene file to PNG + EXR + a JSON run report.
     Render(RenderArgs),
+    /// Shadow cost against error for every method and setting, against a cached traced truth:
+    /// CSV, JSON, plots and an HTML report.
+    Bench(BenchArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let args = match cli.command {
         Some(Command::Render(a)) => a,
+        Some(Command::Bench(b)) => {
+            return match run_bench(&b) {
+                Ok(summary) => {
+                    print!("{summary}");
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(2)
+                }
+            };
+        }
         None => RenderArgs::default(),
     };
     match run_render(&args) {

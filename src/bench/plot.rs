@@ -1,0 +1,181 @@
+//! Error against shadow cost, log-log, one line per method family, the Pareto front marked:
+//! a PNG (and the same plot as SVG) per scene, drawn with plotters.
+//!
+//! Text needs a font: plotters is built without its system-font loader (which needs
+//! fontconfig's C library at build time), so the first font found among `PENUMBRA_FONT` and
+//! a few usual system paths is registered at run time. Without one the plots are drawn
+//! without text, and the HTML report's captions name the axes.
+
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// One point: (shadow cost in s, visibility RMSE).
+pub struct Series<'a> {
+    pub family: &'a str,
+    pub points: Vec<(f64, f64)>,
+}
+
+const FONT_CANDIDATES: &[&str] = &[
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
+    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+    "/usr/share/fonts/liberation-sans/LiberationSans-Regular.ttf",
+    "/Library/Fonts/Arial.ttf",
+    "/System/Library/Fonts/Supplemental/Arial.ttf",
+    "C:\\Windows\\Fonts\\arial.ttf",
+];
+
+/// Whether a font is registered (looked for once per process).
+pub fn have_font() -> bool {
+    static FONT: OnceLock<bool> = OnceLock::new();
+    *FONT.get_or_init(|| {
+        let env = std::env::var("PENUMBRA_FONT").ok();
+        for path in env.iter().map(String::as_str).chain(FONT_CANDIDATES.iter().copied()) {
+            if let Ok(bytes) = std::fs::read(path) {
+                // Registered fonts live for the whole process.
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
+                    return true;
+                }
+            }
+        }
+        false
+    })
+}
+
+/// Colour of a method family (fixed, so every scene's plot reads the same).
+fn colour(family: &str) -> RGBColor {
+    match family {
+        "traced" => RGBColor(90, 90, 90),
+        "edge_table" => RGBColor(214, 39, 40),
+        "depth_march" => RGBColor(31, 119, 180),
+        "pcss" => RGBColor(44, 160, 44),
+        _ => RGBColor(148, 103, 189),
+    }
+}
+
+/// Indices (into the flattened points, family by family) of the points no other point beats
+/// on both cost and error.
+pub fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    order.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0).then(points[a].1.total_cmp(&points[b].1)));
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for i in order {
+        if points[i].1 < best {
+            best = points[i].1;
+            front.push(i);
+        }
+    }
+    front
+}
+
+/// Draws the plot for one scene to `png` (width x height pixels) and `svg`.
+pub fn draw(title: &str, series: &[Series], png: &Path, svg: &Path) -> Result<(), String> {
+    let (w, h) = (900u32, 600u32);
+    let mut rgb = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+        chart(&root, title, series).map_err(|e| e.to_string())?;
+        root.present().map_err(|e| e.to_string())?;
+    }
+    image::save_buffer_with_format(png, &rgb, w, h, image::ColorType::Rgb8, image::ImageFormat::Png)
+        .map_err(|e| format!("{}: {e}", png.display()))?;
+    let root = SVGBackend::new(svg, (w, h)).into_drawing_area();
+    chart(&root, title, series).map_err(|e| e.to_string())?;
+    root.present().map_err(|e| format!("{}: {e}", svg.display()))
+}
+
+fn chart<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    series: &[Series],
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    root.fill(&WHITE)?;
+    // Log axes need positive values: a zero cost (faster than the `none` baseline within
+    // noise) or a zero error is drawn at the axis' floor.
+    let all: Vec<(f64, f64)> =
+        series.iter().flat_map(|s| s.points.iter().map(|&(c, e)| (c.max(1e-4), e.max(1e-4)))).collect();
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
+    for &(c, e) in &all {
+        (x0, x1, y0, y1) = (x0.min(c), x1.max(c), y0.min(e), y1.max(e));
+    }
+    if all.is_empty() {
+        (x0, x1, y0, y1) = (1e-3, 1.0, 1e-3, 1.0);
+    }
+    // Each axis starts at a power of ten (plotters labels a log axis only at decade-based
+    // ticks, so a range inside one decade could show none); the error axis gets headroom
+    // for the legend.
+    let decade_below = |v: f64| 10f64.powf((v / 1.5).log10().floor());
+    let (x0, x1, y0, y1) = (decade_below(x0), x1 * 1.5, decade_below(y0), y1 * 4.0);
+    let text = have_font();
+    let mut builder = ChartBuilder::on(root);
+    builder.margin(20).x_label_area_size(if text { 45 } else { 10 }).y_label_area_size(if text {
+        70
+    } else {
+        10
+    });
+    if text {
+        builder.caption(title, ("sans-serif", 22));
+    }
+    let mut chart = builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+    let mut mesh = chart.configure_mesh();
+    if text {
+        mesh.x_desc("shadow cost (s): shadow_prepare + render time above `none`")
+            .y_desc("visibility RMSE against the truth")
+            .label_style(("sans-serif", 14));
+    } else {
+        mesh.disable_x_mesh().disable_y_mesh().x_labels(0).y_labels(0);
+    }
+    mesh.draw()?;
+    for s in series {
+        let c = colour(s.family);
+        let mut pts: Vec<(f64, f64)> = s.points.iter().map(|&(x, y)| (x.max(1e-4), y.max(1e-4))).collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let line = chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?;
+        if text {
+            line.label(s.family)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        }
+        chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))?;
+    }
+    // The Pareto front: black rings on its points and a dashed staircase through them.
+    let front = pareto(&all);
+    let mut front_pts: Vec<(f64, f64)> = front.iter().map(|&i| all[i]).collect();
+    front_pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    chart.draw_series(front_pts.iter().map(|&p| Circle::new(p, 8, BLACK.stroke_width(2))))?;
+    let mut stairs = Vec::new();
+    for (i, &p) in front_pts.iter().enumerate() {
+        if i > 0 {
+            stairs.push((p.0, front_pts[i - 1].1));
+        }
+        stairs.push(p);
+    }
+    chart.draw_series(DashedLineSeries::new(stairs, 6, 4, BLACK.stroke_width(1)))?;
+    if text {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_pareto_front_keeps_only_undominated_points() {
+        // (cost, error): b beats a on both; c is cheaper than b but worse; d is dominated
+        // by c; e is the most accurate.
+        let pts = [(1.0, 0.5), (0.8, 0.3), (0.1, 0.6), (0.2, 0.7), (5.0, 0.01)];
+        assert_eq!(pareto(&pts), vec![2, 1, 4]);
+    }
+}

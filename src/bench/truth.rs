@@ -1,0 +1,197 @@
+//! The ground truth per scene: `traced` at a high sample count, cached on disk under a key of
+//! the scene and the settings, and recomputed when either changes.
+//!
+//! The key hashes [`TRUTH_VERSION`], the scene file's bytes, every file under each model's
+//! folder (the glTF, its buffers and textures), the image size, spp, seed and sample count.
+//! An entry is three kinds of file in the cache folder, named `<scene-stem>-<key>`: the
+//! radiance (`.exr`), each light's visibility (`.visibility.<k>.exr`) and a `.json` holding
+//! the key's inputs and the time the truth took. Entries of the same scene under another
+//! key are removed when a new one is written.
+
+use glam::Vec3;
+use renderer::output::StagedFiles;
+use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, Traced, TracedParams, render};
+use serde::{Deserialize, Serialize};
+use std::hash::{DefaultHasher, Hasher};
+use std::path::{Path, PathBuf};
+
+/// Bump when the traced method or the frame's conventions change: old entries then no
+/// longer match.
+pub const TRUTH_VERSION: &str = "traced-v1";
+
+/// Mixed into the seed, so the truth's light samples are independent of the swept
+/// `traced` runs' (which use the bench seed itself).
+pub const TRUTH_SEED_SALT: u64 = 0x7275_7468_5eed;
+
+/// The truth of one scene.
+#[derive(Debug, Clone)]
+pub struct Truth {
+    pub radiance: Vec<Vec3>,
+    pub visibility: Vec<Vec<f32>>,
+    /// Whether it came from the cache.
+    pub cached: bool,
+    /// Wall time of the traced render that made it (then or now).
+    pub seconds: f64,
+    pub key: String,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+struct Entry {
+    key: String,
+    version: String,
+    scene: String,
+    width: u32,
+    height: u32,
+    spp: u32,
+    seed: u64,
+    samples: u32,
+    lights: usize,
+    seconds: f64,
+}
+
+/// The cache key of a scene (file `scene_path`, parsed as `file`) under these settings.
+pub fn cache_key(
+    scene_path: &Path,
+    file: &SceneFile,
+    settings: &RenderSettings,
+    samples: u32,
+) -> Result<String, SceneError> {
+    let mut h = DefaultHasher::new();
+    h.write(TRUTH_VERSION.as_bytes());
+    let read =
+        |p: &Path| std::fs::read(p).map_err(|e| SceneError::new(p, "bench", format!("cannot read: {e}")));
+    h.write(&read(scene_path)?);
+    let dir = scene_path.parent().unwrap_or(Path::new(""));
+    for model in &file.model {
+        let model_path = dir.join(&model.path);
+        let folder = model_path.parent().unwrap_or(Path::new("")).to_path_buf();
+        for f in files_under(&folder) {
+            h.write(f.strip_prefix(&folder).unwrap_or(&f).to_string_lossy().as_bytes());
+            h.write(&read(&f)?);
+        }
+    }
+    for v in
+        [settings.width as u64, settings.height as u64, settings.spp as u64, settings.seed, samples as u64]
+    {
+        h.write_u64(v);
+    }
+    Ok(format!("{:016x}", h.finish()))
+}
+
+/// Every file under `folder`, recursively, in a stable order.
+fn files_under(folder: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![folder.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let Ok(entries) = std::fs::read_dir(&d) else { continue };
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+fn entry_paths(cache: &Path, stem: &str, key: &str, lights: usize) -> (PathBuf, PathBuf, Vec<PathBuf>) {
+    let base = cache.join(format!("{stem}-{key}"));
+    let exr = base.with_extension("exr");
+    let json = base.with_extension("json");
+    let vis = (0..lights).map(|k| base.with_extension(format!("visibility.{k}.exr"))).collect();
+    (exr, json, vis)
+}
+
+fn read_exr(path: &Path, settings: &RenderSettings) -> Option<Vec<Vec3>> {
+    let img = image::open(path).ok()?.into_rgb32f();
+    if img.dimensions() != (settings.width, settings.height) {
+        return None;
+    }
+    Some(img.pixels().map(|p| Vec3::from_array(p.0)).collect())
+}
+
+/// The truth for `scene`: read from `cache` when an entry with this key is there and
+/// whole, else rendered with `traced` at `samples` and written there.
+#[allow(clippy::too_many_arguments)]
+pub fn truth(
+    cache: &Path,
+    stem: &str,
+    scene_path: &Path,
+    file: &SceneFile,
+    scene: &Scene,
+    settings: &RenderSettings,
+    samples: u32,
+) -> Result<Truth, SceneError> {
+    let key = cache_key(scene_path, file, settings, samples)?;
+    let lights = scene.lights.len();
+    let (exr, json, vis) = entry_paths(cache, stem, &key, lights);
+    let expected = Entry {
+        key: key.clone(),
+        version: TRUTH_VERSION.to_string(),
+        scene: scene_path.display().to_string(),
+        width: settings.width,
+        height: settings.height,
+        spp: settings.spp,
+        seed: settings.seed,
+        samples,
+        lights,
+        seconds: 0.0,
+    };
+    let cached = || -> Option<Truth> {
+        let entry: Entry = serde_json::from_slice(&std::fs::read(&json).ok()?).ok()?;
+        if (Entry { seconds: 0.0, scene: expected.scene.clone(), ..entry.clone() }) != expected {
+            return None;
+        }
+        let radiance = read_exr(&exr, settings)?;
+        let visibility = vis
+            .iter()
+            .map(|p| read_exr(p, settings).map(|v| v.iter().map(|c| c.x).collect()))
+            .collect::<Option<Vec<Vec<f32>>>>()?;
+        Some(Truth { radiance, visibility, cached: true, seconds: entry.seconds, key: key.clone() })
+    };
+    if let Some(t) = cached() {
+        return Ok(t);
+    }
+
+    let truth_settings = RenderSettings { seed: settings.seed ^ TRUTH_SEED_SALT, ..*settings };
+    let mut methods: Vec<Box<dyn renderer::LightShadowing>> =
+        (0..lights).map(|_| Box::new(Traced::new(TracedParams { samples })) as _).collect();
+    let frame: Frame = render(scene, &mut methods, &truth_settings, &|_| {})
+        .map_err(|e| SceneError::new(scene_path, "bench", e.to_string()))?;
+    let seconds = (frame.shadow_prepare + frame.render).as_secs_f64();
+
+    std::fs::create_dir_all(cache)
+        .map_err(|e| SceneError::new(cache, "--cache", format!("cannot create the folder: {e}")))?;
+    let io = |e: String| SceneError::new(cache, "--cache", e);
+    let mut staged = StagedFiles::default();
+    staged.exr(&exr, settings.width, settings.height, &frame.radiance).map_err(io)?;
+    for (path, v) in vis.iter().zip(&frame.visibility) {
+        let rgb: Vec<Vec3> = v.iter().map(|&x| Vec3::splat(x)).collect();
+        staged.exr(path, settings.width, settings.height, &rgb).map_err(io)?;
+    }
+    let entry = Entry { seconds, ..expected };
+    staged.bytes(&json, &serde_json::to_vec_pretty(&entry).expect("serialises")).map_err(io)?;
+    staged.commit().map_err(io)?;
+    remove_stale(cache, stem, &key);
+    Ok(Truth { radiance: frame.radiance, visibility: frame.visibility, cached: false, seconds, key })
+}
+
+/// Removes the entries of scene `stem` under keys other than `key`.
+fn remove_stale(cache: &Path, stem: &str, key: &str) {
+    let Ok(entries) = std::fs::read_dir(cache) else { return };
+    let prefix = format!("{stem}-");
+    for e in entries.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let Some(rest) = name.strip_prefix(&prefix) else { continue };
+        // `<16 hex digits>.` exactly: another scene's stem may start with this one's.
+        let is_entry = rest.len() > 17
+            && rest.as_bytes()[16] == b'.'
+            && rest[..16].bytes().all(|b| b.is_ascii_hexdigit());
+        if is_entry && !rest.starts_with(key) {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
+}

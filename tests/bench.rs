@@ -1,0 +1,197 @@
+//! `penumbra bench --quick`: the outputs are complete and well-formed, the HTML report's
+//! every image and plot exists and opens, the truth is cached and recomputed when the scene
+//! changes, and bad input is a one-line error with nothing written.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("penumbra-bench-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn bench(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_penumbra")).arg("bench").args(args).output().unwrap()
+}
+
+/// A tiny scene of its own: a floor, a floating card and a box under a square light.
+const TINY_SCENE: &str = r#"
+[camera]
+position = [0.0, 2.5, 2.5]
+look_at = [0.0, 0.0, 0.0]
+yfov_deg = 45.0
+[image]
+width = 64
+height = 48
+[[light]]
+center = [0.6, 2.0, 0.4]
+u = [0.5, 0.0, 0.0]
+v = [0.0, 0.0, 0.5]
+radiance = [8.0, 8.0, 8.0]
+[[quad]]
+center = [0.0, 0.0, 0.0]
+u = [4.0, 0.0, 0.0]
+v = [0.0, 0.0, -4.0]
+color = [0.7, 0.7, 0.7]
+[[quad]]
+center = [-0.3, 0.6, 0.0]
+u = [0.5, 0.0, 0.0]
+v = [0.0, 0.0, -0.5]
+color = [0.5, 0.5, 0.8]
+[[quad]]
+center = [0.5, 0.3, -0.4]
+u = [0.3, 0.0, 0.0]
+v = [0.0, 0.0, -0.3]
+color = [0.8, 0.4, 0.3]
+"#;
+
+fn read(p: &Path) -> String {
+    std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+/// Every local `src="..."` and `href="..."` of the report.
+fn links(html: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for attr in ["src=\"", "href=\""] {
+        let mut rest = html;
+        while let Some(i) = rest.find(attr) {
+            rest = &rest[i + attr.len()..];
+            let end = rest.find('"').unwrap();
+            out.push(rest[..end].to_string());
+            rest = &rest[end..];
+        }
+    }
+    out
+}
+
+fn check_outputs(out: &Path, scenes: &[&str]) -> serde_json::Value {
+    // CSV: the header, then one row per (scene, setting), every number finite.
+    let csv = read(&out.join("results.csv"));
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for col in
+        ["scene", "method", "setting", "shadow_cost_s", "rmse", "penumbra_rmse", "p99", "max", "leak_rate"]
+    {
+        assert!(header.contains(&col), "CSV lacks {col}: {header:?}");
+    }
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert!(!rows.is_empty());
+    for r in &rows {
+        assert_eq!(r.len(), header.len(), "{r:?}");
+        for (name, v) in header.iter().zip(r) {
+            if !["scene", "method", "setting", "edge_table_default"].contains(name) {
+                let x: f64 = v.parse().unwrap_or_else(|_| panic!("{name} = {v:?} is not a number"));
+                assert!(x.is_finite(), "{name} = {x}");
+            }
+        }
+    }
+    let rmse_col = header.iter().position(|c| *c == "rmse").unwrap();
+    for scene in scenes {
+        let mine: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == *scene).collect();
+        for method in ["traced", "depth_march", "edge_table", "pcss"] {
+            assert!(mine.iter().any(|r| r[1] == method), "{scene}: no {method} row");
+        }
+        // The errors are real: traced at 64 samples is closer to the truth than at 16.
+        let rmse = |s: &str| -> f64 { mine.iter().find(|r| r[2] == s).unwrap()[rmse_col].parse().unwrap() };
+        assert!(rmse("traced N=64") < rmse("traced N=16"), "{scene}");
+        assert!(rmse("traced N=16") > 0.0, "{scene}");
+    }
+
+    // JSON: the same rows, and each scene's equal-error speedup.
+    let json: serde_json::Value = serde_json::from_str(&read(&out.join("results.json"))).unwrap();
+    assert_eq!(json["rows"].as_array().unwrap().len(), rows.len());
+    for s in json["scenes"].as_array().unwrap() {
+        assert!(s["equal_error_speedup"]["ratio"].as_f64().unwrap() > 0.0, "{s}");
+    }
+
+    // HTML: every linked file exists; images and plots decode; SVGs are SVG.
+    let html = read(&out.join("index.html"));
+    let links = links(&html);
+    for scene in scenes {
+        assert!(links.iter().any(|l| l == &format!("{scene}/plot.png")), "{scene}: no plot");
+        assert!(links.iter().any(|l| l == &format!("{scene}/truth.png")), "{scene}: no truth image");
+        assert!(
+            links.iter().filter(|l| l.starts_with(&format!("{scene}/")) && l.ends_with(".error.png")).count()
+                >= 4
+        );
+    }
+    for l in &links {
+        let p = out.join(l);
+        assert!(p.is_file(), "{l} is linked but missing");
+        if l.ends_with(".png") {
+            let img = image::open(&p).unwrap_or_else(|e| panic!("{l}: {e}"));
+            assert!(img.width() > 0 && img.height() > 0);
+        } else if l.ends_with(".svg") {
+            assert!(read(&p).contains("<svg"), "{l}");
+        } else {
+            assert!(l.ends_with(".csv") || l.ends_with(".json"), "unexpected link {l}");
+        }
+    }
+    json
+}
+
+#[test]
+fn quick_bench_writes_a_complete_report_and_caches_the_truth() {
+    let dir = temp_dir("quick");
+    let scene = dir.join("tiny.toml");
+    std::fs::write(&scene, TINY_SCENE).unwrap();
+    let default_scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/default.toml");
+    let out = dir.join("out");
+    let args = [
+        scene.to_str().unwrap(),
+        default_scene.to_str().unwrap(),
+        "--quick",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let first = bench(&args);
+    assert!(first.status.success(), "{}", String::from_utf8_lossy(&first.stderr));
+    let summary = String::from_utf8_lossy(&first.stdout);
+    assert!(summary.contains("equal-error speedup") && summary.contains("index.html"), "{summary}");
+    let json = check_outputs(&out, &["tiny", "default"]);
+    assert!(json["scenes"].as_array().unwrap().iter().all(|s| s["truth_cached"] == false));
+
+    // Again: the truth comes from the cache, and the errors are the same.
+    let second = bench(&args);
+    assert!(second.status.success(), "{}", String::from_utf8_lossy(&second.stderr));
+    let json2 = check_outputs(&out, &["tiny", "default"]);
+    assert!(json2["scenes"].as_array().unwrap().iter().all(|s| s["truth_cached"] == true));
+    let rmse = |j: &serde_json::Value| -> Vec<f64> {
+        j["rows"].as_array().unwrap().iter().map(|r| r["rmse"].as_f64().unwrap()).collect()
+    };
+    assert_eq!(rmse(&json), rmse(&json2));
+
+    // A changed scene is a new truth; the stale entry is gone.
+    std::fs::write(&scene, TINY_SCENE.replace("[8.0, 8.0, 8.0]", "[9.0, 9.0, 9.0]")).unwrap();
+    let third = bench(&args[..1].iter().chain(&args[2..]).copied().collect::<Vec<_>>());
+    assert!(third.status.success(), "{}", String::from_utf8_lossy(&third.stderr));
+    let json3: serde_json::Value = serde_json::from_str(&read(&out.join("results.json"))).unwrap();
+    assert_eq!(json3["scenes"][0]["truth_cached"], false);
+    let tiny_entries = std::fs::read_dir(out.join("truth-cache"))
+        .unwrap()
+        .flatten()
+        .filter(|e| {
+            e.file_name().to_string_lossy().starts_with("tiny-")
+                && e.file_name().to_string_lossy().ends_with(".json")
+        })
+        .count();
+    assert_eq!(tiny_entries, 1, "the stale truth was not removed");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_missing_scene_is_one_line_and_writes_nothing() {
+    let dir = temp_dir("missing");
+    let out = dir.join("out");
+    let missing = dir.join("nope.toml");
+    let o = bench(&[missing.to_str().unwrap(), "--quick", "--out", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(err.contains("nope.toml"), "{err}");
+    assert!(!out.exists(), "something was written");
+    let _ = std::fs::remove_dir_all(&dir);
+}
