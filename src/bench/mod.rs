@@ -58,6 +58,10 @@ pub struct BenchArgs {
     pub threads: Option<u32>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// A run longer than this is not repeated, and `edge_table` settings at least as costly
+    /// by construction (no smaller map, grid, blend or sample count) are skipped and listed.
+    #[arg(long, default_value_t = 10.0)]
+    pub max_run_seconds: f64,
     /// CI mode: 64 pixels wide, truth at 256 samples, a short sweep, one repeat.
     #[arg(long)]
     pub quick: bool,
@@ -248,10 +252,16 @@ fn run_setting(
     config: &ShadowsConfig,
     settings: &RenderSettings,
     repeats: u32,
+    max_run_seconds: f64,
 ) -> Result<Run, String> {
     let mut first = None;
     let (mut prepare, mut render_t, mut peak) = (Vec::new(), Vec::new(), 0.0f64);
     for _ in 0..repeats {
+        // A long run is timed once: its noise is small against it, and repeating it would
+        // take the time the rest of the sweep needs.
+        if prepare.last().zip(render_t.last()).is_some_and(|(p, r): (&f64, &f64)| p + r > max_run_seconds) {
+            break;
+        }
         reset_peak_rss();
         let mut methods: Vec<_> = scene.lights.iter().map(|_| build_shadowing(config)).collect();
         let frame = render(scene, &mut methods, settings, &|_| {}).map_err(|e| e.to_string())?;
@@ -262,6 +272,25 @@ fn run_setting(
         first.get_or_insert(frame);
     }
     Ok(Run { frame: first.expect("repeats >= 1"), prepare, render: render_t, peak })
+}
+
+/// The `edge_table` parameters that only make a run costlier as they grow: (depth map,
+/// grid, blend (nearest 0, trilinear 1), samples).
+fn cost_order(c: &ShadowsConfig) -> Option<(u32, [u32; 3], u32, u32)> {
+    if c.method != MethodName::EdgeTable {
+        return None;
+    }
+    let p = c.edge_table.params();
+    let blend = match p.blend {
+        shadow_plugin::Blend::Nearest => 0,
+        shadow_plugin::Blend::Trilinear => 1,
+    };
+    Some((p.depth_map.resolution, p.grid, blend, c.samples))
+}
+
+/// Whether `a` is at most `b` in every cost parameter.
+fn no_costlier(a: (u32, [u32; 3], u32, u32), b: (u32, [u32; 3], u32, u32)) -> bool {
+    a.0 <= b.0 && a.1.iter().zip(&b.1).all(|(x, y)| x <= y) && a.2 <= b.2 && a.3 <= b.3
 }
 
 fn secs(d: Duration) -> f64 {
@@ -283,6 +312,8 @@ pub struct SceneResult {
     pub best: Vec<(String, String, String, String)>,
     /// The equal-error speedup of `edge_table` (default, 1024 samples), if it was run.
     pub speedup: Option<Speedup>,
+    /// Settings not run (see `--max-run-seconds`).
+    pub skipped: Vec<String>,
 }
 
 /// The shadow cost of the cheapest `traced` run whose error is at or below `edge_table`'s,
@@ -421,7 +452,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
             log(format!("{}: {} triangles, {width}x{height}", path.display(), scene.stats.triangles));
 
             let none_cfg = ShadowsConfig { method: MethodName::None, ..ShadowsConfig::default() };
-            let none = run_setting(&scene, &none_cfg, &settings, repeats)
+            let none = run_setting(&scene, &none_cfg, &settings, repeats, args.max_run_seconds)
                 .map_err(|e| SceneError::new(path, "bench", e))?;
             let none_render = median(none.render.clone());
             let reach = none.frame.visibility.clone();
@@ -437,8 +468,21 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
             let mut rows = Vec::new();
             // Per family: (rmse, label, frame) of the best setting so far.
             let mut best: Vec<(&'static str, f64, String, Frame)> = Vec::new();
+            // edge_table settings whose first run took longer than --max-run-seconds.
+            let mut too_long: Vec<(u32, [u32; 3], u32, u32)> = Vec::new();
+            let mut skipped = Vec::new();
             for s in &settings_list {
-                let run = run_setting(&scene, &s.config, &settings, repeats)
+                if let Some(order) = cost_order(&s.config)
+                    && too_long.iter().any(|&t| no_costlier(t, order))
+                {
+                    log(format!(
+                        "  {:<40} skipped: a cheaper setting took over {} s",
+                        s.label, args.max_run_seconds
+                    ));
+                    skipped.push(s.label.clone());
+                    continue;
+                }
+                let run = run_setting(&scene, &s.config, &settings, repeats, args.max_run_seconds)
                     .map_err(|e| SceneError::new(path, "bench", format!("{}: {e}", s.label)))?;
                 let errors = metrics::errors(
                     &reach,
@@ -448,6 +492,11 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
                     &run.frame.radiance,
                 );
                 let (prep, rend) = (median(run.prepare.clone()), median(run.render.clone()));
+                if let Some(order) = cost_order(&s.config)
+                    && run.prepare[0] + run.render[0] > args.max_run_seconds
+                {
+                    too_long.push(order);
+                }
                 let counter = |k: &str| run.frame.counters.get(k).copied().unwrap_or(0);
                 let row = Row {
                     scene: stem.clone(),
@@ -457,7 +506,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
                     edge_table_default: s.is_edge_table_default,
                     width,
                     height,
-                    repeats,
+                    repeats: run.prepare.len() as u32,
                     shadow_prepare_s: prep,
                     render_s: rend,
                     total_s: fixed + prep + rend,
@@ -529,6 +578,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
                 rows,
                 best: best_files,
                 speedup,
+                skipped,
             });
         }
         Ok(())
@@ -550,7 +600,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
         "scenes": results.iter().map(|s| serde_json::json!({
             "scene": s.stem, "path": s.path, "triangles": s.triangles, "width": s.width,
             "height": s.height, "truth_samples": s.truth_samples, "truth_cached": s.truth_cached,
-            "truth_seconds": s.truth_seconds, "equal_error_speedup": s.speedup,
+            "truth_seconds": s.truth_seconds, "equal_error_speedup": s.speedup, "skipped": s.skipped,
         })).collect::<Vec<_>>(),
         "rows": all_rows,
     });
@@ -603,6 +653,14 @@ fn summary(args: &BenchArgs, results: &[SceneResult]) -> String {
             }
         }
         let _ = writeln!(s, "  equal-error speedup of edge_table: {}", speedup_text(&r.speedup));
+        if !r.skipped.is_empty() {
+            let _ = writeln!(
+                s,
+                "  skipped (a cheaper setting took over {} s): {}",
+                args.max_run_seconds,
+                r.skipped.join("; ")
+            );
+        }
     }
     let _ = writeln!(s, "wrote {}", args.out.join("index.html").display());
     s
@@ -630,7 +688,6 @@ sample count, over the pixels each light reaches. Data: <a href=\"results.csv\">
         threads,
         repeats
     );
-    let _ = args;
     for r in results {
         let _ = write!(
             h,
@@ -677,7 +734,16 @@ edge_table (default, highlighted): {}.</p>\n<p><img class=\"plot\" src=\"{}/plot
                 row.method_mib
             );
         }
-        h.push_str("</table>\n<div>\n");
+        h.push_str("</table>\n");
+        if !r.skipped.is_empty() {
+            let _ = writeln!(
+                h,
+                "<p>Skipped (a setting no costlier took over {} s): {}.</p>",
+                args.max_run_seconds,
+                esc(&r.skipped.join("; "))
+            );
+        }
+        h.push_str("<div>\n");
         let _ = writeln!(
             h,
             "<figure><img src=\"{0}/truth.png\" alt=\"truth\"><figcaption>truth (traced N={1})</figcaption></figure>",
@@ -764,6 +830,23 @@ mod tests {
     }
 
     #[test]
+    fn costlier_edge_table_settings_are_the_ones_skipped() {
+        let et = |map: u32, grid: [u32; 3], blend: BlendName, samples: u32| {
+            let mut c = ShadowsConfig { method: MethodName::EdgeTable, samples, ..ShadowsConfig::default() };
+            c.edge_table.depth_map = Some(map);
+            c.edge_table.grid = Some(grid);
+            c.edge_table.blend = Some(blend);
+            cost_order(&c).unwrap()
+        };
+        let slow = et(256, [4, 4, 2], BlendName::Trilinear, 1024);
+        assert!(no_costlier(slow, et(512, [4, 4, 2], BlendName::Trilinear, 1024)));
+        assert!(no_costlier(slow, et(256, [8, 8, 4], BlendName::Trilinear, 1024)));
+        assert!(!no_costlier(slow, et(256, [8, 8, 4], BlendName::Nearest, 1024)));
+        assert!(!no_costlier(slow, et(512, [4, 4, 2], BlendName::Trilinear, 256)));
+        assert_eq!(cost_order(&ShadowsConfig::default()), None, "traced is never skipped");
+    }
+
+    #[test]
     fn bench_size_scales_scenes_down_to_the_bench_width() {
         let args = |w: Option<u32>, h: Option<u32>, quick: bool| BenchArgs {
             scenes: vec![],
@@ -777,6 +860,7 @@ mod tests {
             seed: 0,
             quick,
             quiet: true,
+            max_run_seconds: 10.0,
         };
         assert_eq!(bench_size(&args(None, None, false), 640, 480), (320, 240));
         assert_eq!(bench_size(&args(None, None, false), 200, 100), (200, 100));
