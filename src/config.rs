@@ -120,6 +120,8 @@ pub struct EdgeTableConfig {
     pub normal_offset: Option<f32>,
     /// `plates`: closed meshes are solid from their front face down to their back face.
     pub closed_volumes: Option<bool>,
+    /// `plates`: a second, hidden layer (the first surface under each pixel's slab).
+    pub hidden_layer: Option<bool>,
 }
 
 /// `[shadows.depth_march]`.
@@ -132,6 +134,7 @@ pub struct DepthMapConfig {
     pub slab_thickness: Option<f32>,
     pub normal_offset: Option<f32>,
     pub closed_volumes: Option<bool>,
+    pub hidden_layer: Option<bool>,
 }
 
 /// `[shadows.pcss]`: any of `shadow_plugin::PcssParams`' defaults overridden.
@@ -206,6 +209,9 @@ impl EdgeTableConfig {
         if let Some(c) = self.closed_volumes {
             p.depth_map.closed_volumes = c;
         }
+        if let Some(h) = self.hidden_layer {
+            p.depth_map.hidden_layer = h;
+        }
         p
     }
 }
@@ -223,6 +229,7 @@ impl DepthMapConfig {
             slab_thickness: self.slab_thickness.unwrap_or(d.slab_thickness),
             normal_offset: self.normal_offset.unwrap_or(d.normal_offset),
             closed_volumes: self.closed_volumes.unwrap_or(d.closed_volumes),
+            hidden_layer: self.hidden_layer.unwrap_or(d.hidden_layer),
         }
     }
 }

@@ -480,6 +480,31 @@ fn thick_closed_occluder_blocks_rays_passing_under_its_top() {
 }
 
 #[test]
+fn occluder_hidden_under_a_card_still_casts_its_shadow() {
+    let dir = temp_dir("hidden");
+    // A 1.6 m light 2.5 m up, a 0.6 m card at 1.5 m and under it a closed block (0.4 x 0.3 x
+    // 0.4 at 0.6-0.9 m) that the card hides from the light's centre: the depth map's first
+    // layer sees only the card. Rays from the floor beside it to the light's far side pass
+    // under the card and through the block; only the hidden layer holds the block.
+    let mut quads = vec![floor(2.0, 2.0)];
+    quads.push(card([0.0, 1.5, 0.0], 0.3, 0.3));
+    quads.extend(closed_block(0.0, 0.6, 0.0, 0.2, 0.2, 0.3));
+    let scene = Scene {
+        quads,
+        light: light_toward([0.0, 2.5, 0.0], [0.0, 0.0, 0.0], 1.6),
+        camera: camera([0.0, 2.2, 2.2], [0.0, 0.3, 0.0]),
+    };
+    let (_, m) = run_case(&dir, "hidden", &scene);
+    // Measured: RMSE 0.079, p99 0.40, 2 pixels (0.04%) off by more than 0.5. Without the
+    // hidden layer (`hidden_layer = false`): RMSE 0.100, p99 0.43, 9 pixels (0.17%). Most
+    // of the remaining error is on the card's top, too dark, with or without the layer: not
+    // explained yet.
+    assert!(m.rmse < 0.09, "{m:?}");
+    assert!(m.over_half < 0.001, "{m:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn contact_shadows_have_no_gap() {
     let dir = temp_dir("contact");
     // A 0.5 box and a thin bar (0.1 wide, 0.04 tall) standing on the floor, lit from 37 deg

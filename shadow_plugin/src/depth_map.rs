@@ -70,6 +70,11 @@ pub struct DepthMapParams {
     /// down to that back face (a second depth layer), so a chair seat or a fox's leg blocks
     /// the rays that pass under its top surface. Open surfaces keep `slab_thickness`.
     pub closed_volumes: bool,
+    /// `plates`: a second layer per pixel, the first surface below the first one's slab (a
+    /// chair's frame under its seat, a vase's far wall), read like the first and OR-ed with
+    /// it: a ray is blocked if it passes through a slab of either layer. The same masks serve
+    /// both; queries cost up to twice as much where the layer is near.
+    pub hidden_layer: bool,
 }
 
 impl DepthMapParams {
@@ -80,6 +85,7 @@ impl DepthMapParams {
             slab_thickness: DEFAULT_SLAB,
             normal_offset: DEFAULT_NORMAL_OFFSET,
             closed_volumes: true,
+            hidden_layer: true,
         }
     }
 }
@@ -128,6 +134,10 @@ pub struct DepthMap {
     /// floor's depth times (1 + `slab_thickness` x pitch), deeper where a closed mesh's back
     /// face lies below its front face (see [`DepthMapParams::closed_volumes`]).
     pub bottom: Vec<f32>,
+    /// The hidden layer ([`DepthMapParams::hidden_layer`]): per pixel the floor and slab
+    /// bottom of the first surface below `bottom` (+inf where none); empty when off.
+    pub depth2: Vec<f32>,
+    pub bottom2: Vec<f32>,
     /// See [`DepthMap::lookup_point`].
     pub normal_offset: f32,
     pyramid: MinPyramid,
@@ -208,6 +218,61 @@ pub struct MapPoint {
     pub z: f32,
 }
 
+/// What the map's rays see, for [`DepthMap::build`].
+struct Surfaces<'a> {
+    scene: &'a Scene,
+    frame: &'a LightFrame,
+    params: &'a DepthMapParams,
+    pitch: f32,
+    slab: f32,
+    eps: f32,
+}
+
+impl Surfaces<'_> {
+    /// The first surface the light's ray through image point `img` meets beyond planar depth
+    /// `from`, as a (floor, slab bottom) pair of biased depths.
+    fn slab_after(&self, img: Vec2, from: f32) -> Option<(f32, f32)> {
+        let (frame, params, pitch, eps) = (self.frame, self.params, self.pitch, self.eps);
+        // Direction with light-space z = 1: the ray's t is then the planar depth.
+        let dir = frame.x * img.x + frame.y * img.y + frame.z;
+        let ray = Ray::new(Vec3A::from(frame.origin), Vec3A::from(dir), from, f32::INFINITY);
+        let hit = self.scene.intersect(ray)?;
+        // Planar depth over the image is z = c / (n . (u, v, 1)) for a plane with light-frame
+        // normal n, so one pixel changes it by about pitch * z * |n_xy| / |n . (u, v, 1)|:
+        // zero for surfaces facing the light squarely, large for grazing ones (capped at
+        // MAX_SLOPE).
+        let z = hit.t;
+        let n = Vec3::new(hit.n_geom.dot(frame.x), hit.n_geom.dot(frame.y), hit.n_geom.dot(frame.z));
+        let facing = (n.x * img.x + n.y * img.y + n.z).abs();
+        let slope = (n.truncate().length() / facing.max(1e-12)).min(MAX_SLOPE);
+        let d = z + params.slope_bias * pitch * z * slope + eps;
+        let mut b = d * (1.0 + self.slab);
+        // Closed volumes: the next surface along the same ray. A back face there means the
+        // ray was inside a closed mesh from z to it (glTF meshes wind their front faces
+        // outwards); anything else is an open surface. Solids stacked within a slab of each
+        // other (a ball resting on a seat) are one. Only under surfaces that face the light
+        // (slope <= 1, within 45 deg): the depth of a surface the light grazes steps steeply
+        // from pixel to pixel, so rays leaving it dip under its neighbours' floors and would
+        // stay blocked in a thick slab (measured: false shadows on a grazed wall).
+        if params.closed_volumes && hit.front_face && slope <= MAX_SOLID_SLOPE {
+            let mut from = z;
+            for _ in 0..MAX_STACKED_SOLIDS {
+                let inside = Ray::new(ray.origin, ray.direction, from + 2.0 * eps, f32::INFINITY);
+                let Some(exit) = self.scene.intersect(inside).filter(|h| !h.front_face) else { break };
+                b = b.max(exit.t + eps);
+                let beyond = Ray::new(ray.origin, ray.direction, exit.t + 2.0 * eps, f32::INFINITY);
+                match self.scene.intersect(beyond) {
+                    Some(next) if next.front_face && next.t <= exit.t * (1.0 + self.slab) + eps => {
+                        from = next.t
+                    }
+                    _ => break,
+                }
+            }
+        }
+        Some((d, b))
+    }
+}
+
 impl DepthMap {
     /// Fits the frustum to the receivers in `visible` and renders the map.
     pub fn build(
@@ -276,65 +341,35 @@ impl DepthMap {
         let origin = centre - Vec2::splat(0.5 * pitch * res as f32);
 
         let slab = params.slab_thickness * pitch;
-        let mut depth = vec![f32::INFINITY; (res * res) as usize];
-        let mut bottom = vec![f32::INFINITY; (res * res) as usize];
-        depth.par_chunks_mut(res as usize).zip(bottom.par_chunks_mut(res as usize)).enumerate().for_each(
-            |(j, (row, bottom_row))| {
-                for (i, (d, b)) in row.iter_mut().zip(bottom_row.iter_mut()).enumerate() {
+        let n_pixels = (res * res) as usize;
+        let mut depth = vec![f32::INFINITY; n_pixels];
+        let mut bottom = vec![f32::INFINITY; n_pixels];
+        let mut depth2 = vec![f32::INFINITY; n_pixels];
+        let mut bottom2 = vec![f32::INFINITY; n_pixels];
+        let surface = Surfaces { scene, frame: &frame, params, pitch, slab, eps };
+        let row = res as usize;
+        depth
+            .par_chunks_mut(row)
+            .zip(bottom.par_chunks_mut(row))
+            .zip(depth2.par_chunks_mut(row))
+            .zip(bottom2.par_chunks_mut(row))
+            .enumerate()
+            .for_each(|(j, (((d_row, b_row), d2_row), b2_row))| {
+                for i in 0..row {
                     let img = origin + pitch * Vec2::new(i as f32 + 0.5, j as f32 + 0.5);
-                    // Direction with light-space z = 1: the ray's t is then the planar depth.
-                    let dir = frame.x * img.x + frame.y * img.y + frame.z;
-                    let ray = Ray::new(Vec3A::from(frame.origin), Vec3A::from(dir), 2.0 * eps, f32::INFINITY);
-                    if let Some(hit) = scene.intersect(ray) {
-                        // Planar depth over the image is z = c / (n . (u, v, 1)) for a plane with
-                        // light-frame normal n, so one pixel changes it by about
-                        // pitch * z * |n_xy| / |n . (u, v, 1)|: zero for surfaces facing the
-                        // light squarely, large for grazing ones (capped at MAX_SLOPE).
-                        let z = hit.t;
-                        let n = Vec3::new(
-                            hit.n_geom.dot(frame.x),
-                            hit.n_geom.dot(frame.y),
-                            hit.n_geom.dot(frame.z),
-                        );
-                        let facing = (n.x * img.x + n.y * img.y + n.z).abs();
-                        let slope = (n.truncate().length() / facing.max(1e-12)).min(MAX_SLOPE);
-                        *d = z + params.slope_bias * pitch * z * slope + eps;
-                        *b = *d * (1.0 + slab);
-                        // The second layer: the next surface along the same ray. A back face
-                        // there means the ray was inside a closed mesh from z to it (glTF meshes
-                        // wind their front faces outwards); anything else is an open surface.
-                        // Solids stacked within a slab of each other (a ball resting on a
-                        // seat) are one: the seat under the ball is hidden from the map, and
-                        // rays passing under the ball's bottom would otherwise leak through it.
-                        // Only under surfaces that face the light (slope <= 1, within 45 deg): the
-                        // depth of a surface the light grazes steps steeply from pixel to pixel,
-                        // so rays leaving it dip under its neighbours' floors and would stay
-                        // blocked in a thick slab (measured: false shadows on a grazed wall).
-                        if params.closed_volumes && hit.front_face && slope <= MAX_SOLID_SLOPE {
-                            let mut from = z;
-                            for _ in 0..MAX_STACKED_SOLIDS {
-                                let inside =
-                                    Ray::new(ray.origin, ray.direction, from + 2.0 * eps, f32::INFINITY);
-                                let Some(exit) = scene.intersect(inside).filter(|h| !h.front_face) else {
-                                    break;
-                                };
-                                *b = b.max(exit.t + eps);
-                                let beyond =
-                                    Ray::new(ray.origin, ray.direction, exit.t + 2.0 * eps, f32::INFINITY);
-                                match scene.intersect(beyond) {
-                                    Some(next)
-                                        if next.front_face && next.t <= exit.t * (1.0 + slab) + eps =>
-                                    {
-                                        from = next.t
-                                    }
-                                    _ => break,
-                                }
-                            }
-                        }
+                    let Some((d, b)) = surface.slab_after(img, 2.0 * eps) else { continue };
+                    (d_row[i], b_row[i]) = (d, b);
+                    // The hidden layer: the first surface below this pixel's slab.
+                    if params.hidden_layer
+                        && let Some((d2, b2)) = surface.slab_after(img, b)
+                    {
+                        (d2_row[i], b2_row[i]) = (d2, b2);
                     }
                 }
-            },
-        );
+            });
+        if !params.hidden_layer {
+            (depth2, bottom2) = (Vec::new(), Vec::new());
+        }
         let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
         let pyramid = MinPyramid::new(&depth, res as usize);
         let normal_offset = params.normal_offset;
@@ -347,6 +382,8 @@ impl DepthMap {
             z_min,
             caster_z_near,
             bottom,
+            depth2,
+            bottom2,
             normal_offset,
             pyramid,
         }
@@ -369,6 +406,8 @@ impl DepthMap {
             origin,
             pitch,
             bottom: depth.clone(),
+            depth2: Vec::new(),
+            bottom2: Vec::new(),
             depth,
             z_min,
             caster_z_near: z_min,
@@ -469,15 +508,57 @@ impl DepthMap {
     /// The normalised heights (floor, slab bottom) of pixel (i, j) seen from depth `pz`.
     #[inline]
     pub fn heights(&self, i: i32, j: i32, pz: f32) -> (f32, f32) {
+        self.layer_heights(0, i, j, pz)
+    }
+
+    /// How many layers the map holds (1, or 2 with the hidden layer).
+    #[inline]
+    pub fn layers(&self) -> usize {
+        if self.depth2.is_empty() { 1 } else { 2 }
+    }
+
+    /// Biased depth of layer `layer` at pixel (i, j); +inf outside the map or where empty.
+    #[inline]
+    pub fn layer_at(&self, layer: usize, i: i32, j: i32) -> f32 {
+        let n = self.resolution as i32;
+        if i < 0 || j < 0 || i >= n || j >= n {
+            return f32::INFINITY;
+        }
+        let k = (j * n + i) as usize;
+        if layer == 0 { self.depth[k] } else { self.depth2.get(k).copied().unwrap_or(f32::INFINITY) }
+    }
+
+    /// [`DepthMap::heights`] of layer `layer`.
+    #[inline]
+    pub fn layer_heights(&self, layer: usize, i: i32, j: i32, pz: f32) -> (f32, f32) {
         let n = self.resolution as i32;
         if i < 0 || j < 0 || i >= n || j >= n {
             return (f32::NEG_INFINITY, f32::NEG_INFINITY);
         }
         let k = (j * n + i) as usize;
-        (floor_height(self.depth[k], pz), floor_height(self.bottom[k], pz))
+        let (d, b) = if layer == 0 {
+            (self.depth[k], self.bottom[k])
+        } else {
+            (
+                self.depth2.get(k).copied().unwrap_or(f32::INFINITY),
+                self.bottom2.get(k).copied().unwrap_or(f32::INFINITY),
+            )
+        };
+        (floor_height(d, pz), floor_height(b, pz))
+    }
+
+    /// The same map with a hidden layer (floors and slab bottoms, biased depths, row-major;
+    /// +inf where empty), for tests and tools.
+    pub fn with_hidden_layer(mut self, depth2: Vec<f32>, bottom2: Vec<f32>) -> Self {
+        assert_eq!(depth2.len(), self.depth.len());
+        assert_eq!(bottom2.len(), self.depth.len());
+        self.bottom2 = bottom2.iter().zip(&depth2).map(|(b, d)| b.max(*d)).collect();
+        self.depth2 = depth2;
+        self
     }
 
     pub fn bytes(&self) -> u64 {
-        ((self.depth.len() + self.bottom.len()) * std::mem::size_of::<f32>()) as u64
+        ((self.depth.len() + self.bottom.len() + self.depth2.len() + self.bottom2.len())
+            * std::mem::size_of::<f32>()) as u64
     }
 }

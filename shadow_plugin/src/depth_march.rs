@@ -31,9 +31,14 @@ pub fn march_bits(
     let [i0, j0] = mp.pixel;
     let h_stop = stop_height(z_stop, mp.z);
     let pz_pitch = mp.z * map.pitch;
-    let floor = |c: [i32; 2]| map.heights(i0 + c[0], j0 + c[1], mp.z);
+    // `plates` reads the hidden layer too: blocked by a slab of either layer.
+    let layers = if heightfield == Heightfield::Plates { map.layers() } else { 1 };
     for (r, s) in samples.iter().enumerate() {
-        if ray_blocked(mp.offset, *s, pz_pitch, h_stop, heightfield, floor) {
+        let blocked = (0..layers).any(|layer| {
+            let floor = |c: [i32; 2]| map.layer_heights(layer, i0 + c[0], j0 + c[1], mp.z);
+            ray_blocked(mp.offset, *s, pz_pitch, h_stop, heightfield, floor)
+        });
+        if blocked {
             out[r / 64] &= !(1u64 << (r % 64));
         }
     }

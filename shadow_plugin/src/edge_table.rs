@@ -26,6 +26,7 @@
 //! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
 //! | `slab_thickness` | float | 2.0 | `plates`: each floor is a slab this many pixel footprints thick |
 //! | `normal_offset` | float | 1.0 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
+//! | `hidden_layer` | bool | true | `plates`: a second depth layer, the first surface under each pixel's slab, read like the first (a ray is blocked by a slab of either) |
 //! | `closed_volumes` | bool | true | `plates`: a closed mesh is solid from its front face down to its back face (a second depth layer) |
 //!
 //! `samples` (`[shadows]`) is the number of rays per mask (at most 4096).
@@ -343,12 +344,17 @@ impl Mask {
         let out = &mut out[..words];
         out.copy_from_slice(&self.full);
         let floor = |c: &Cell| floor_height(map.at(base[0] + c.dx, base[1] + c.dy), pz);
+        let layer_floor =
+            |layer: usize, c: &Cell| floor_height(map.layer_at(layer, base[0] + c.dx, base[1] + c.dy), pz);
         // Where a ray must leave a pixel to have passed through its floor: above the floor
         // itself (shells), or above the bottom of its slab (plates).
-        let exit_height = |c: &Cell, h: f32| match heightfield {
-            Heightfield::Plates => map.heights(base[0] + c.dx, base[1] + c.dy, pz).1,
+        let exit_height = |layer: usize, c: &Cell, h: f32| match heightfield {
+            Heightfield::Plates => map.layer_heights(layer, base[0] + c.dx, base[1] + c.dy, pz).1,
             _ => h,
         };
+        // `plates` reads the hidden layer too: a ray is blocked by a slab of either layer,
+        // so each layer's pass ANDs into the same visible bits.
+        let layers = if heightfield == Heightfield::Plates { map.layers() } else { 1 };
         let h_own = floor(&self.cells[0]);
         // Below(q) over the crossings under `h_stop` only, as `depth_march` sees them: a mask
         // that marched further (`h_max > h_stop`) also holds crossings at `h_stop` exactly
@@ -402,49 +408,51 @@ impl Mask {
                 // one floor to under a higher one.
                 let mut in_mask = [0u64; MAX_WORDS];
                 let mut out_mask = [0u64; MAX_WORDS];
-                for (k, c) in self.cells.iter().enumerate() {
-                    if k > 0 && c.in_first >= h_stop {
-                        break;
-                    }
-                    let h = floor(c);
-                    if k > 0 && h < c.in_first {
-                        continue; // no ray enters below this floor: the floor blocks nothing
-                    }
-                    // In: entered at or below the floor (the own pixel: P itself, at 0).
-                    let in_m = &mut in_mask[..words];
-                    if k == 0 {
-                        if h < 0.0 {
-                            continue; // P above its own floor: that floor blocks nothing
+                for layer in 0..layers {
+                    for (k, c) in self.cells.iter().enumerate() {
+                        if k > 0 && c.in_first >= h_stop {
+                            break;
                         }
-                        in_m.iter_mut().for_each(|w| *w = 0);
-                    } else {
-                        in_m.copy_from_slice(&self.full);
-                        for &e in c.in_edges.iter().filter(|&&e| e != NONE) {
-                            and(in_m, below(&self.edges[e as usize], h));
+                        let h = layer_floor(layer, c);
+                        if k > 0 && h < c.in_first {
+                            continue; // no ray enters below this floor: the floor blocks nothing
+                        }
+                        // In: entered at or below the floor (the own pixel: P itself, at 0).
+                        let in_m = &mut in_mask[..words];
+                        if k == 0 {
+                            if h < 0.0 {
+                                continue; // P above its own floor: that floor blocks nothing
+                            }
+                            in_m.iter_mut().for_each(|w| *w = 0);
+                        } else {
+                            in_m.copy_from_slice(&self.full);
+                            for &e in c.in_edges.iter().filter(|&&e| e != NONE) {
+                                and(in_m, below(&self.edges[e as usize], h));
+                                stats.lookups += 1;
+                            }
+                            // Only rays that entered under this floor and are not blocked yet can
+                            // change the result: skip the out-sides when there are none.
+                            if in_m.iter().zip(out.iter()).all(|(i, o)| !*i & *o == 0) {
+                                continue;
+                            }
+                        }
+                        // Out: left at or below the floor (plates: the slab's bottom).
+                        let out_m = &mut out_mask[..words];
+                        out_m.copy_from_slice(&self.full);
+                        let h_exit = exit_height(layer, c, h);
+                        for &e in c.out_edges.iter().filter(|&&e| e != NONE) {
+                            and(out_m, below(&self.edges[e as usize], h_exit));
                             stats.lookups += 1;
                         }
-                        // Only rays that entered under this floor and are not blocked yet can
-                        // change the result: skip the out-sides when there are none.
-                        if in_m.iter().zip(out.iter()).all(|(i, o)| !*i & *o == 0) {
-                            continue;
+                        let mut any = 0u64;
+                        for ((o, i), x) in out.iter_mut().zip(in_m.iter()).zip(out_m.iter()) {
+                            *o &= *i | !*x;
+                            any |= *o;
                         }
-                    }
-                    // Out: left at or below the floor (plates: the slab's bottom).
-                    let out_m = &mut out_mask[..words];
-                    out_m.copy_from_slice(&self.full);
-                    let h_exit = exit_height(c, h);
-                    for &e in c.out_edges.iter().filter(|&&e| e != NONE) {
-                        and(out_m, below(&self.edges[e as usize], h_exit));
-                        stats.lookups += 1;
-                    }
-                    let mut any = 0u64;
-                    for ((o, i), x) in out.iter_mut().zip(in_m.iter()).zip(out_m.iter()) {
-                        *o &= *i | !*x;
-                        any |= *o;
-                    }
-                    if any == 0 {
-                        stats.early_out = true;
-                        return stats;
+                        if any == 0 {
+                            stats.early_out = true;
+                            return stats;
+                        }
                     }
                 }
                 for e in &self.edges {

@@ -54,7 +54,7 @@
 //!
 //! Points outside the map fall back to `traced` rays (counted as `fallbacks`), as for the
 //! other depth-map methods. PCSS reads only the map's depths, so its map is built without
-//! the `closed_volumes` second layer (the depths are identical).
+//! the `closed_volumes` slabs and the hidden layer (its depths are the same).
 //!
 //! | key (`[shadows.pcss]`) | type | default | meaning |
 //! |---|---|---|---|
@@ -194,7 +194,7 @@ impl LightShadowing for Pcss {
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
         // The same map as depth_march's; the closed-volume layer only changes the slab
         // bottoms, which PCSS never reads, so it is not traced.
-        let params = DepthMapParams { closed_volumes: false, ..self.params.depth_map };
+        let params = DepthMapParams { closed_volumes: false, hidden_layer: false, ..self.params.depth_map };
         self.map = Some(DepthMap::build(ctx.scene, ctx.light, ctx.visible, &params));
         self.fallback.prepare(ctx)
     }

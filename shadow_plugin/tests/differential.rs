@@ -174,6 +174,23 @@ fn random_map(rng: &mut Random) -> (DepthMap, Vec<f32>) {
         Some(b) => map.with_bottoms(b),
         None => map,
     };
+    // Half the maps get a hidden layer (read by `plates` only): under each pixel, with
+    // probability 3/4, a floor 5-60% deeper than the first layer's slab bottom, with a slab
+    // of its own. From a stream of its own, like the slabs.
+    let mut layer_rng = Rng::new(rng.0.clone().next_u64() ^ 0x41dd_e11a);
+    let map = if layer_rng.next_f32() < 0.5 {
+        let n = map.depth.len();
+        let (mut d2, mut b2) = (vec![f32::INFINITY; n], vec![f32::INFINITY; n]);
+        for k in 0..n {
+            if map.bottom[k].is_finite() && layer_rng.next_f32() < 0.75 {
+                d2[k] = map.bottom[k] * (1.05 + 0.55 * layer_rng.next_f32());
+                b2[k] = d2[k] * (1.0 + 0.2 * layer_rng.next_f32());
+            }
+        }
+        map.with_hidden_layer(d2, b2)
+    } else {
+        map
+    };
     (map, ground)
 }
 
