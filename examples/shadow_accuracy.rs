@@ -134,6 +134,9 @@ fn main() {
     let mut offset = d;
     offset.depth_map.normal_offset = 0.5;
     configs.push(("edge_table default, normal_offset 0.5".to_string(), offset));
+    let mut one_layer = d;
+    one_layer.depth_map.hidden_layer = false;
+    configs.push(("edge_table default, hidden_layer off".to_string(), one_layer));
 
     for path in &scenes {
         let file = SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));

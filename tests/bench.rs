@@ -195,3 +195,65 @@ fn a_missing_scene_is_one_line_and_writes_nothing() {
     assert!(!out.exists(), "something was written");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The truth's key covers a model's buffer, not only the scene file: appending to the .bin
+/// (the glTF still loads; the bytes differ) renders the truth anew.
+#[test]
+fn a_changed_model_buffer_renders_the_truth_anew() {
+    let dir = temp_dir("model");
+    let fox = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf/fox");
+    let model = dir.join("fox");
+    std::fs::create_dir_all(&model).unwrap();
+    for e in std::fs::read_dir(&fox).unwrap().flatten() {
+        std::fs::copy(e.path(), model.join(e.file_name())).unwrap();
+    }
+    let scene = dir.join("fox.toml");
+    let original = read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/gltf/fox.toml"));
+    std::fs::write(&scene, original.replace("../../../shared/gltf/fox/", "fox/")).unwrap();
+    let out = dir.join("out");
+    let args = [scene.to_str().unwrap(), "--quick", "--quiet", "--out", out.to_str().unwrap()];
+    let cached = || -> bool {
+        let o = bench(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let json: serde_json::Value = serde_json::from_str(&read(&out.join("results.json"))).unwrap();
+        json["scenes"][0]["truth_cached"].as_bool().unwrap()
+    };
+    assert!(!cached());
+    assert!(cached());
+    let bin = std::fs::read_dir(&model)
+        .unwrap()
+        .flatten()
+        .find(|e| e.path().extension().is_some_and(|x| x == "bin"));
+    let bin = bin.expect("the fox has a .bin").path();
+    let mut bytes = std::fs::read(&bin).unwrap();
+    bytes.extend_from_slice(&[0; 4]);
+    std::fs::write(&bin, bytes).unwrap();
+    assert!(!cached(), "a changed buffer reused the old truth");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A setting the method refuses (masks over the memory budget) is skipped with its reason;
+/// the rest of the bench runs and the report is written.
+#[test]
+fn a_refused_setting_is_skipped_not_fatal() {
+    let dir = temp_dir("refused");
+    let scene = dir.join("tiny.toml");
+    std::fs::write(&scene, TINY_SCENE).unwrap();
+    let out = dir.join("out");
+    let o = Command::new(env!("CARGO_BIN_EXE_penumbra"))
+        .args(["bench", scene.to_str().unwrap(), "--quick", "--quiet", "--out", out.to_str().unwrap()])
+        .env("PENUMBRA_MASK_BUDGET_MIB", "0")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value = serde_json::from_str(&read(&out.join("results.json"))).unwrap();
+    let skipped = json["scenes"][0]["skipped"].as_array().unwrap();
+    assert!(
+        !skipped.is_empty() && skipped.iter().all(|s| s.as_str().unwrap().contains("MiB")),
+        "{skipped:?}"
+    );
+    let rows = json["rows"].as_array().unwrap();
+    assert!(rows.iter().all(|r| r["method"] != "edge_table"));
+    assert!(rows.iter().any(|r| r["method"] == "pcss") && rows.iter().any(|r| r["method"] == "traced"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -35,9 +35,10 @@ pub struct BenchArgs {
     /// Scene files (TOML).
     #[arg(required = true)]
     pub scenes: Vec<PathBuf>,
-    /// Output folder.
-    #[arg(long, default_value = "out/bench")]
-    pub out: PathBuf,
+    /// Output folder. Default: out/bench (out/bench-quick with --quick, so that a quick run
+    /// neither overwrites a full report nor evicts its cached truths).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
     /// Runs per setting (times are medians).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
     pub repeats: u32,
@@ -58,9 +59,10 @@ pub struct BenchArgs {
     pub threads: Option<u32>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// A run longer than this is not repeated, and `edge_table` settings at least as costly
-    /// by construction (no smaller map, grid, blend or sample count) are skipped and listed.
-    #[arg(long, default_value_t = 10.0)]
+    /// A setting whose first run takes longer than this is not repeated, and `edge_table`
+    /// settings at least as costly by construction (no smaller map, grid, blend or sample
+    /// count) are then skipped and listed. Runs are not interrupted.
+    #[arg(long, default_value_t = 10.0, value_parser = positive_seconds)]
     pub max_run_seconds: f64,
     /// CI mode: 64 pixels wide, truth at 256 samples, a short sweep, one repeat.
     #[arg(long)]
@@ -68,6 +70,22 @@ pub struct BenchArgs {
     /// No per-run progress lines on stderr.
     #[arg(long)]
     pub quiet: bool,
+}
+
+fn positive_seconds(v: &str) -> Result<f64, String> {
+    match v.parse::<f64>() {
+        Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+        _ => Err(format!("must be a finite number of seconds > 0, got {v:?}")),
+    }
+}
+
+impl BenchArgs {
+    /// The output folder.
+    pub fn out_dir(&self) -> PathBuf {
+        self.out
+            .clone()
+            .unwrap_or_else(|| PathBuf::from(if self.quick { "out/bench-quick" } else { "out/bench" }))
+    }
 }
 
 /// The default bench image width (scenes are scaled down to it).
@@ -94,7 +112,7 @@ fn setting(label: String, config: ShadowsConfig) -> Setting {
 pub fn sweep(quick: bool) -> Vec<Setting> {
     let base = ShadowsConfig::default();
     let mut out = Vec::new();
-    let traced_ns: &[u32] = if quick { &[16, 64] } else { &[16, 64, 256, 1024] };
+    let traced_ns: &[u32] = if quick { &[4, 16, 64] } else { &[4, 16, 64, 256, 1024] };
     for &n in traced_ns {
         out.push(setting(
             format!("traced N={n}"),
@@ -162,7 +180,8 @@ pub struct Row {
     pub total_s: f64,
     /// shadow_prepare + render - render of `none` (medians).
     pub shadow_cost_s: f64,
-    /// The process' peak resident memory during the run (Linux; 0 elsewhere), MiB.
+    /// The run's peak resident memory above what was resident when it started (Linux;
+    /// NaN elsewhere), MiB, the largest over the repeats.
     pub peak_rss_mib: f64,
     /// What the method says it holds (depth map and masks), MiB.
     pub method_mib: f64,
@@ -172,7 +191,7 @@ pub struct Row {
 }
 
 /// CSV header and line of a row (every field of the JSON, in the same order).
-const CSV_HEADER: &str = "scene,method,setting,samples,edge_table_default,width,height,repeats,shadow_prepare_s,render_s,total_s,shadow_cost_s,peak_rss_mib,method_mib,fallbacks,rmse,penumbra_rmse,p99,max,leak_rate,false_shadow_rate,penumbra_bias,image_relative_rmse,lit_pixels,penumbra_pixels";
+const CSV_HEADER: &str = "scene,method,setting,samples,edge_table_default,width,height,repeats,shadow_prepare_s,render_s,total_s,shadow_cost_s,peak_rss_mib,method_mib,fallbacks,rmse,penumbra_rmse,p99,max,leak_rate,false_shadow_rate,penumbra_bias,image_relative_rmse,lit_pixels,penumbra_pixels,dark_pixels,bright_pixels";
 
 /// A CSV field: quoted (quotes doubled) when it holds a comma, quote or line break. The
 /// `csv` crate cannot write the flattened `Row` (serde's `flatten` goes through a map).
@@ -183,7 +202,7 @@ fn csv_field(s: &str) -> String {
 fn csv_line(r: &Row) -> String {
     let e = &r.errors;
     format!(
-        "{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.1},{:.3},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{}",
+        "{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.1},{:.3},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{},{}",
         csv_field(&r.scene),
         r.method,
         csv_field(&r.setting),
@@ -208,24 +227,29 @@ fn csv_line(r: &Row) -> String {
         e.penumbra_bias,
         e.image_relative_rmse,
         e.lit_pixels,
-        e.penumbra_pixels
+        e.penumbra_pixels,
+        e.dark_pixels,
+        e.bright_pixels
     )
 }
 
 /// Resets the process' peak-RSS counter (Linux: `clear_refs` 5), so the next read is the
 /// peak since now.
-fn reset_peak_rss() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
+/// Resets the process' peak-RSS counter and returns the resident memory now (MiB), or None
+/// where that cannot be done (not Linux).
+fn reset_peak_rss() -> Option<f64> {
+    std::fs::write("/proc/self/clear_refs", "5").ok()?;
+    status_mib("VmRSS:")
 }
 
-/// Peak resident memory since the last reset, MiB (0 where /proc is not there).
-fn peak_rss_mib() -> f64 {
-    let Ok(status) = std::fs::read_to_string("/proc/self/status") else { return 0.0 };
+/// A `/proc/self/status` field in MiB.
+fn status_mib(field: &str) -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
     status
         .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .find_map(|l| l.strip_prefix(field))
         .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        .map_or(0.0, |kb| kb / 1024.0)
+        .map(|kb| kb / 1024.0)
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -244,6 +268,8 @@ struct Run {
     frame: Frame,
     prepare: Vec<f64>,
     render: Vec<f64>,
+    /// shadow_prepare + render per repeat.
+    totals: Vec<f64>,
     peak: f64,
 }
 
@@ -256,22 +282,27 @@ fn run_setting(
 ) -> Result<Run, String> {
     let mut first = None;
     let (mut prepare, mut render_t, mut peak) = (Vec::new(), Vec::new(), 0.0f64);
+    let mut totals = Vec::new();
     for _ in 0..repeats {
         // A long run is timed once: its noise is small against it, and repeating it would
         // take the time the rest of the sweep needs.
         if prepare.last().zip(render_t.last()).is_some_and(|(p, r): (&f64, &f64)| p + r > max_run_seconds) {
             break;
         }
-        reset_peak_rss();
+        // The run's own peak: the high-water mark above what was resident when it started
+        // (the allocator keeps what earlier runs freed, so the bare mark would carry over).
+        let base = reset_peak_rss();
         let mut methods: Vec<_> = scene.lights.iter().map(|_| build_shadowing(config)).collect();
         let frame = render(scene, &mut methods, settings, &|_| {}).map_err(|e| e.to_string())?;
         drop(methods);
-        peak = peak.max(peak_rss_mib());
+        let run_peak = base.zip(status_mib("VmHWM:")).map_or(f64::NAN, |(b, hwm)| (hwm - b).max(0.0));
+        peak = if peak.is_nan() { peak } else { peak.max(run_peak) };
         prepare.push(secs(frame.shadow_prepare));
         render_t.push(secs(frame.render));
+        totals.push(secs(frame.shadow_prepare) + secs(frame.render));
         first.get_or_insert(frame);
     }
-    Ok(Run { frame: first.expect("repeats >= 1"), prepare, render: render_t, peak })
+    Ok(Run { frame: first.expect("repeats >= 1"), prepare, render: render_t, totals, peak })
 }
 
 /// The `edge_table` parameters that only make a run costlier as they grow: (depth map,
@@ -316,38 +347,80 @@ pub struct SceneResult {
     pub skipped: Vec<String>,
 }
 
-/// The shadow cost of the cheapest `traced` run whose error is at or below `edge_table`'s,
-/// divided by `edge_table`'s.
+/// The equal-error speedup (the issue's definition): the shadow cost of the cheapest
+/// `traced` run whose RMSE is at or below `edge_table`'s (defaults, 1024 samples), divided
+/// by `edge_table`'s.
 #[derive(Debug, Clone, Serialize)]
 pub struct Speedup {
     pub edge_table_rmse: f64,
     pub edge_table_cost_s: f64,
-    /// The traced run matched, or None when no traced run reached edge_table's error (the
-    /// speedup is then at least the ratio to the most accurate traced run).
+    /// The traced run matched: the cheapest at or below edge_table's error, or, when none
+    /// is, the most accurate one (`at_least`).
     pub traced_setting: String,
     pub traced_cost_s: f64,
     pub ratio: f64,
+    /// No traced run reached edge_table's error: the speedup is at least `ratio`.
     pub at_least: bool,
+    /// The match is the cheapest traced run and is strictly more accurate: a traced run
+    /// with fewer samples might match too, so the speedup is at most `ratio`.
+    pub at_most: bool,
+    /// The traced cost at exactly edge_table's error, interpolated on log-log axes between
+    /// the two traced runs whose errors bracket it, over edge_table's cost (None outside
+    /// the traced runs' range).
+    pub interpolated_ratio: Option<f64>,
 }
 
 fn equal_error_speedup(rows: &[Row]) -> Option<Speedup> {
     let et = rows.iter().find(|r| r.edge_table_default)?;
-    let traced: Vec<&Row> = rows.iter().filter(|r| r.method == "traced").collect();
-    let cost = |r: &Row| r.shadow_cost_s.max(1e-6);
-    let matched =
-        traced.iter().filter(|r| r.errors.rmse <= et.errors.rmse).min_by(|a, b| cost(a).total_cmp(&cost(b)));
+    let mut traced: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.method == "traced" && r.errors.rmse.is_finite() && r.shadow_cost_s > 0.0)
+        .collect();
+    // No lit pixel (NaN errors) or a cost lost in the noise: no meaningful ratio.
+    if !et.errors.rmse.is_finite() || et.shadow_cost_s <= 0.0 || traced.is_empty() {
+        return None;
+    }
+    traced.sort_by(|a, b| a.shadow_cost_s.total_cmp(&b.shadow_cost_s));
+    let cheapest = traced[0];
+    let matched = traced.iter().find(|r| r.errors.rmse <= et.errors.rmse);
     let (t, at_least) = match matched {
         Some(t) => (*t, false),
         None => (*traced.iter().min_by(|a, b| a.errors.rmse.total_cmp(&b.errors.rmse))?, true),
     };
+    let at_most = !at_least && std::ptr::eq(t, cheapest) && t.errors.rmse < et.errors.rmse;
+    let interpolated = traced.windows(2).find_map(|w| {
+        let (a, b) = (w[0], w[1]); // a cheaper and (normally) less accurate than b
+        let (ea, eb) = (a.errors.rmse, b.errors.rmse);
+        let e = et.errors.rmse;
+        if !(eb <= e && e <= ea) || ea <= 0.0 || eb <= 0.0 || ea == eb {
+            return None;
+        }
+        let f = (e.ln() - ea.ln()) / (eb.ln() - ea.ln());
+        Some(
+            (a.shadow_cost_s.ln() + f * (b.shadow_cost_s.ln() - a.shadow_cost_s.ln())).exp()
+                / et.shadow_cost_s,
+        )
+    });
     Some(Speedup {
         edge_table_rmse: et.errors.rmse,
         edge_table_cost_s: et.shadow_cost_s,
         traced_setting: t.setting.clone(),
         traced_cost_s: t.shadow_cost_s,
-        ratio: cost(t) / cost(et),
+        ratio: t.shadow_cost_s / et.shadow_cost_s,
         at_least,
+        at_most,
+        interpolated_ratio: interpolated,
     })
+}
+
+/// A ratio with two significant digits.
+fn ratio_text(r: f64) -> String {
+    if r.is_nan() || r <= 0.0 || r.is_infinite() {
+        return format!("{r}x");
+    }
+    // Decimals for two significant digits, whole numbers from 10 up.
+    let decimals = (1.0 - r.log10().floor()).max(0.0) as usize;
+    format!("{r:.decimals$}x")
 }
 
 /// The bench's image size for a scene of `w` x `h`.
@@ -396,6 +469,7 @@ fn family(m: MethodName) -> &'static str {
 
 /// Runs the bench. Progress lines go to stderr unless `--quiet`; the summary is returned.
 pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
+    let out = args.out_dir();
     let threads = match args.threads {
         Some(n) => n as usize,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
@@ -403,11 +477,11 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .map_err(|e| SceneError::new(&args.out, "--threads", e.to_string()))?;
+        .map_err(|e| SceneError::new(&out, "--threads", e.to_string()))?;
     let repeats = if args.quick { 1 } else { args.repeats };
     let truth_samples =
         if args.quick { QUICK_TRUTH_SAMPLES.min(args.truth_samples) } else { args.truth_samples };
-    let cache = args.cache.clone().unwrap_or_else(|| args.out.join("truth-cache"));
+    let cache = args.cache.clone().unwrap_or_else(|| out.join("truth-cache"));
     let settings_list = sweep(args.quick);
     let log = |s: String| {
         if !args.quiet {
@@ -420,11 +494,23 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
     for path in &args.scenes {
         let file = SceneFile::load(path)?;
         crate::config::ShadowsConfig::from_table(&file.shadows, path)?;
+        // Loaded once here too (then dropped), so that a broken model or a scene without a
+        // light stops the bench before any scene's sweep, not after.
+        if Scene::load(&file, path)?.lights.is_empty() {
+            return Err(SceneError::new(path, "light", "the bench needs at least one light"));
+        }
         files.push((path.clone(), file));
     }
     let mut stems: Vec<String> = Vec::new();
     for (path, _) in &files {
         let stem = path.file_stem().map_or("scene".into(), |s| s.to_string_lossy().into_owned());
+        if ["index", "results", "truth-cache"].contains(&stem.as_str()) {
+            return Err(SceneError::new(
+                path,
+                "bench",
+                format!("a scene may not be named {stem}: outputs would clash"),
+            ));
+        }
         if stems.contains(&stem) {
             return Err(SceneError::new(
                 path,
@@ -434,18 +520,18 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
         }
         stems.push(stem);
     }
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| SceneError::new(&args.out, "--out", format!("cannot create the folder: {e}")))?;
+    std::fs::create_dir_all(&out)
+        .map_err(|e| SceneError::new(&out, "--out", format!("cannot create the folder: {e}")))?;
 
     let mut staged = StagedFiles::default();
-    let io = |e: String| SceneError::new(&args.out, "--out", e);
+    let io = |e: String| SceneError::new(&out, "--out", e);
     let mut results = Vec::new();
     pool.install(|| -> Result<(), SceneError> {
         for ((path, file), stem) in files.iter().zip(&stems) {
             let scene = Scene::load(file, path)?;
             let (width, height) = bench_size(args, file.image.width, file.image.height);
             let settings = RenderSettings { width, height, spp: 1, seed: args.seed };
-            let scene_dir = args.out.join(stem);
+            let scene_dir = out.join(stem);
             std::fs::create_dir_all(&scene_dir).map_err(|e| {
                 SceneError::new(&scene_dir, "--out", format!("cannot create the folder: {e}"))
             })?;
@@ -454,7 +540,9 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
             let none_cfg = ShadowsConfig { method: MethodName::None, ..ShadowsConfig::default() };
             let none = run_setting(&scene, &none_cfg, &settings, repeats, args.max_run_seconds)
                 .map_err(|e| SceneError::new(path, "bench", e))?;
-            let none_render = median(none.render.clone());
+            // The cost floor: what every method pays (primary rays, shading, collecting the
+            // visible points), median of prepare + render.
+            let none_total = median(none.totals.clone());
             let reach = none.frame.visibility.clone();
 
             let truth = truth::truth(&cache, stem, path, file, &scene, &settings, truth_samples)?;
@@ -479,11 +567,22 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
                         "  {:<40} skipped: a cheaper setting took over {} s",
                         s.label, args.max_run_seconds
                     ));
-                    skipped.push(s.label.clone());
+                    skipped.push(format!(
+                        "{} (a setting no costlier took over {} s)",
+                        s.label, args.max_run_seconds
+                    ));
                     continue;
                 }
-                let run = run_setting(&scene, &s.config, &settings, repeats, args.max_run_seconds)
-                    .map_err(|e| SceneError::new(path, "bench", format!("{}: {e}", s.label)))?;
+                // A method that cannot run this setting (say, masks over the memory budget) is
+                // listed as skipped with its reason; the rest of the sweep goes on.
+                let run = match run_setting(&scene, &s.config, &settings, repeats, args.max_run_seconds) {
+                    Ok(run) => run,
+                    Err(e) => {
+                        log(format!("  {:<40} skipped: {e}", s.label));
+                        skipped.push(format!("{} ({e})", s.label));
+                        continue;
+                    }
+                };
                 let errors = metrics::errors(
                     &reach,
                     &truth.visibility,
@@ -510,7 +609,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
                     shadow_prepare_s: prep,
                     render_s: rend,
                     total_s: fixed + prep + rend,
-                    shadow_cost_s: prep + rend - none_render,
+                    shadow_cost_s: median(run.totals.clone()) - none_total,
                     peak_rss_mib: run.peak,
                     method_mib: (counter("mask_bytes") + counter("depth_map_bytes")) as f64 / 1048576.0,
                     fallbacks: counter("fallbacks"),
@@ -522,7 +621,8 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
                 ));
                 let fam = family(s.config.method);
                 match best.iter_mut().find(|b| b.0 == fam) {
-                    Some(b) if b.1 <= errors.rmse => {}
+                    // A NaN error (no lit pixel) never counts as the best.
+                    Some(b) if errors.rmse.is_nan() || errors.rmse >= b.1 => {}
                     Some(b) => *b = (fam, errors.rmse, s.label.clone(), run.frame),
                     None => best.push((fam, errors.rmse, s.label.clone(), run.frame)),
                 }
@@ -535,9 +635,9 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
             for (fam, _, label, frame) in &best {
                 let img = format!("{stem}/{fam}.png");
                 let heat = format!("{stem}/{fam}.error.png");
-                staged.png(&args.out.join(&img), width, height, &frame.radiance).map_err(io)?;
+                staged.png(&out.join(&img), width, height, &frame.radiance).map_err(io)?;
                 let hm = heat_map(&reach, &truth.visibility, &frame.visibility);
-                staged.png(&args.out.join(&heat), width, height, &hm).map_err(io)?;
+                staged.png(&out.join(&heat), width, height, &hm).map_err(io)?;
                 best_files.push((fam.to_string(), label.clone(), img, heat));
             }
 
@@ -558,10 +658,11 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
             let tmp_svg = scene_dir.join(format!(".plot.{}.svg", std::process::id()));
             let title = format!("{stem}: visibility RMSE against shadow cost ({width}x{height})");
             let drawn = plot::draw(&title, &series, &tmp_png, &tmp_svg);
-            for (tmp, name) in [(&tmp_png, "plot.png"), (&tmp_svg, "plot.svg")] {
-                let bytes = std::fs::read(tmp);
-                let _ = std::fs::remove_file(tmp);
-                drawn.clone().map_err(io)?;
+            let (png_bytes, svg_bytes) = (std::fs::read(&tmp_png), std::fs::read(&tmp_svg));
+            let _ = std::fs::remove_file(&tmp_png);
+            let _ = std::fs::remove_file(&tmp_svg);
+            drawn.map_err(io)?;
+            for (bytes, name) in [(png_bytes, "plot.png"), (svg_bytes, "plot.svg")] {
                 staged.bytes(&scene_dir.join(name), &bytes.map_err(|e| io(e.to_string()))?).map_err(io)?;
             }
 
@@ -591,7 +692,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
         csv.push_str(&csv_line(r));
         csv.push('\n');
     }
-    staged.bytes(&args.out.join("results.csv"), csv.as_bytes()).map_err(io)?;
+    staged.bytes(&out.join("results.csv"), csv.as_bytes()).map_err(io)?;
     let json = serde_json::json!({
         "threads": threads,
         "repeats": repeats,
@@ -605,26 +706,32 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
         "rows": all_rows,
     });
     staged
-        .bytes(&args.out.join("results.json"), &serde_json::to_vec_pretty(&json).expect("serialises"))
+        .bytes(&out.join("results.json"), &serde_json::to_vec_pretty(&json).expect("serialises"))
         .map_err(io)?;
-    staged
-        .bytes(&args.out.join("index.html"), html(args, threads, repeats, &results).as_bytes())
-        .map_err(io)?;
+    staged.bytes(&out.join("index.html"), html(threads, repeats, &results).as_bytes()).map_err(io)?;
     staged.commit().map_err(io)?;
     Ok(summary(args, &results))
 }
 
 fn speedup_text(s: &Option<Speedup>) -> String {
     match s {
-        None => "n/a (edge_table default not in the sweep)".into(),
+        None => "n/a (no edge_table default row, no lit pixel, or costs within the noise)".into(),
         Some(s) => format!(
-            "{}{:.1}x (edge_table RMSE {:.4} at {:.3} s; {} at {:.3} s)",
-            if s.at_least { ">= " } else { "" },
-            s.ratio,
+            "{}{} (edge_table RMSE {:.4} at {:.3} s; {} at {:.3} s{}{})",
+            if s.at_least {
+                ">= "
+            } else if s.at_most {
+                "<= "
+            } else {
+                ""
+            },
+            ratio_text(s.ratio),
             s.edge_table_rmse,
             s.edge_table_cost_s,
             s.traced_setting,
-            s.traced_cost_s
+            s.traced_cost_s,
+            if s.at_most { ", already more accurate" } else { "" },
+            s.interpolated_ratio.map_or(String::new(), |r| format!("; interpolated {}", ratio_text(r)))
         ),
     }
 }
@@ -654,15 +761,10 @@ fn summary(args: &BenchArgs, results: &[SceneResult]) -> String {
         }
         let _ = writeln!(s, "  equal-error speedup of edge_table: {}", speedup_text(&r.speedup));
         if !r.skipped.is_empty() {
-            let _ = writeln!(
-                s,
-                "  skipped (a cheaper setting took over {} s): {}",
-                args.max_run_seconds,
-                r.skipped.join("; ")
-            );
+            let _ = writeln!(s, "  skipped: {}", r.skipped.join("; "));
         }
     }
-    let _ = writeln!(s, "wrote {}", args.out.join("index.html").display());
+    let _ = writeln!(s, "wrote {}", args.out_dir().join("index.html").display());
     s
 }
 
@@ -671,7 +773,7 @@ fn esc(s: &str) -> String {
 }
 
 /// The HTML report: per scene the plot, the table and the images side by side.
-fn html(args: &BenchArgs, threads: usize, repeats: u32, results: &[SceneResult]) -> String {
+fn html(threads: usize, repeats: u32, results: &[SceneResult]) -> String {
     let mut h = String::new();
     let _ = write!(
         h,
@@ -736,12 +838,7 @@ edge_table (default, highlighted): {}.</p>\n<p><img class=\"plot\" src=\"{}/plot
         }
         h.push_str("</table>\n");
         if !r.skipped.is_empty() {
-            let _ = writeln!(
-                h,
-                "<p>Skipped (a setting no costlier took over {} s): {}.</p>",
-                args.max_run_seconds,
-                esc(&r.skipped.join("; "))
-            );
+            let _ = writeln!(h, "<p>Skipped: {}.</p>", esc(&r.skipped.join("; ")));
         }
         h.push_str("<div>\n");
         let _ = writeln!(
@@ -805,7 +902,29 @@ mod tests {
         ];
         let s = equal_error_speedup(&rows).unwrap();
         assert_eq!(s.traced_setting, "t64");
-        assert!((s.ratio - 8.0).abs() < 1e-9 && !s.at_least, "{s:?}");
+        assert!((s.ratio - 8.0).abs() < 1e-9 && !s.at_least && !s.at_most, "{s:?}");
+        // Exactly at t64's error: the interpolation lands on t64's cost.
+        assert!((s.interpolated_ratio.unwrap() - 8.0).abs() < 1e-9, "{s:?}");
+        // Between t16 and t64 (error 0.0566, the geometric mean): cost sqrt(0.1 x 0.4).
+        let mid = vec![
+            row("traced", "t16", 0.1, 0.08, false),
+            row("traced", "t64", 0.4, 0.04, false),
+            row("edge_table", "et", 0.1, (0.08f64 * 0.04).sqrt(), true),
+        ];
+        let s = equal_error_speedup(&mid).unwrap();
+        assert!((s.interpolated_ratio.unwrap() - 2.0).abs() < 1e-9, "{s:?}");
+        // The cheapest traced run is already more accurate: an upper bound.
+        let cheap = vec![row("traced", "t16", 0.1, 0.02, false), row("edge_table", "et", 0.2, 0.04, true)];
+        let s = equal_error_speedup(&cheap).unwrap();
+        assert!(s.at_most && (s.ratio - 0.5).abs() < 1e-9 && s.interpolated_ratio.is_none(), "{s:?}");
+        assert_eq!(
+            [ratio_text(0.0032), ratio_text(0.46), ratio_text(2.345), ratio_text(31.7)],
+            ["0.0032x", "0.46x", "2.3x", "32x"]
+        );
+        // No lit pixel: no ratio.
+        let dark =
+            vec![row("traced", "t16", 0.1, f64::NAN, false), row("edge_table", "et", 0.2, f64::NAN, true)];
+        assert!(equal_error_speedup(&dark).is_none());
         // Better than every traced run: a lower bound against the most accurate one.
         let rows = vec![row("traced", "t16", 0.1, 0.08, false), row("edge_table", "et", 0.05, 0.01, true)];
         let s = equal_error_speedup(&rows).unwrap();
@@ -826,7 +945,7 @@ mod tests {
             .filter(|x| x.config.method == MethodName::Traced)
             .map(|x| x.config.samples)
             .collect();
-        assert_eq!(full, vec![16, 64, 256, 1024]);
+        assert_eq!(full, vec![4, 16, 64, 256, 1024]);
     }
 
     #[test]
@@ -850,7 +969,7 @@ mod tests {
     fn bench_size_scales_scenes_down_to_the_bench_width() {
         let args = |w: Option<u32>, h: Option<u32>, quick: bool| BenchArgs {
             scenes: vec![],
-            out: PathBuf::new(),
+            out: None,
             repeats: 1,
             truth_samples: 1,
             cache: None,

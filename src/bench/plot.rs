@@ -57,6 +57,17 @@ fn colour(family: &str) -> RGBColor {
     }
 }
 
+/// The points that can be drawn on log axes: finite errors (NaN means no lit pixel), a
+/// cost at or below zero (within the noise of the `none` baseline) or a zero error drawn
+/// at the axis' floor.
+fn finite(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    points
+        .iter()
+        .filter(|(c, e)| c.is_finite() && e.is_finite())
+        .map(|&(c, e)| (c.max(1e-4), e.max(1e-4)))
+        .collect()
+}
+
 /// Indices (into the flattened points, family by family) of the points no other point beats
 /// on both cost and error.
 pub fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
@@ -95,10 +106,7 @@ fn chart<DB: DrawingBackend>(
     series: &[Series],
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     root.fill(&WHITE)?;
-    // Log axes need positive values: a zero cost (faster than the `none` baseline within
-    // noise) or a zero error is drawn at the axis' floor.
-    let all: Vec<(f64, f64)> =
-        series.iter().flat_map(|s| s.points.iter().map(|&(c, e)| (c.max(1e-4), e.max(1e-4)))).collect();
+    let all: Vec<(f64, f64)> = series.iter().flat_map(|s| finite(&s.points)).collect();
     let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
     for &(c, e) in &all {
         (x0, x1, y0, y1) = (x0.min(c), x1.max(c), y0.min(e), y1.max(e));
@@ -133,9 +141,15 @@ fn chart<DB: DrawingBackend>(
     mesh.draw()?;
     for s in series {
         let c = colour(s.family);
-        let mut pts: Vec<(f64, f64)> = s.points.iter().map(|&(x, y)| (x.max(1e-4), y.max(1e-4))).collect();
+        let mut pts = finite(&s.points);
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let line = chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?;
+        // Only `traced` is a curve (one parameter, N); the other families' settings differ in
+        // several ways at once, so they are points, not a line.
+        let line = if s.family == "traced" {
+            chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
+        } else {
+            chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
+        };
         if text {
             line.label(s.family)
                 .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));

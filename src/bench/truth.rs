@@ -1,12 +1,15 @@
 //! The ground truth per scene: `traced` at a high sample count, cached on disk under a key of
 //! the scene and the settings, and recomputed when either changes.
 //!
-//! The key hashes [`TRUTH_VERSION`], the scene file's bytes, every file under each model's
-//! folder (the glTF, its buffers and textures), the image size, spp, seed and sample count.
+//! The key hashes [`TRUTH_VERSION`], the scene file's bytes, each model's files (the glTF
+//! and the buffers and images it names), the image size, spp, seed and sample count.
 //! An entry is three kinds of file in the cache folder, named `<scene-stem>-<key>`: the
 //! radiance (`.exr`), each light's visibility (`.visibility.<k>.exr`) and a `.json` holding
 //! the key's inputs and the time the truth took. Entries of the same scene under another
 //! key are removed when a new one is written.
+//!
+//! Code is not in the key: a change to `traced`, the loader or the frame's conventions must
+//! bump [`TRUTH_VERSION`] (or the cache folder be removed).
 
 use glam::Vec3;
 use renderer::output::StagedFiles;
@@ -61,13 +64,12 @@ pub fn cache_key(
     let read =
         |p: &Path| std::fs::read(p).map_err(|e| SceneError::new(p, "bench", format!("cannot read: {e}")));
     h.write(&read(scene_path)?);
-    let dir = scene_path.parent().unwrap_or(Path::new(""));
     for model in &file.model {
-        let model_path = dir.join(&model.path);
-        let folder = model_path.parent().unwrap_or(Path::new("")).to_path_buf();
-        for f in files_under(&folder) {
-            h.write(f.strip_prefix(&folder).unwrap_or(&f).to_string_lossy().as_bytes());
-            h.write(&read(&f)?);
+        for f in model_files(&SceneFile::resolve(scene_path, &model.path)) {
+            // Length-prefixed, so that no two file lists hash the same bytes.
+            let bytes = read(&f)?;
+            h.write_usize(bytes.len());
+            h.write(&bytes);
         }
     }
     for v in
@@ -78,30 +80,53 @@ pub fn cache_key(
     Ok(format!("{:016x}", h.finish()))
 }
 
-/// Every file under `folder`, recursively, in a stable order.
-fn files_under(folder: &Path) -> Vec<PathBuf> {
-    let mut out = Vec::new();
-    let mut stack = vec![folder.to_path_buf()];
-    while let Some(d) = stack.pop() {
-        let Ok(entries) = std::fs::read_dir(&d) else { continue };
-        for e in entries.flatten() {
-            let p = e.path();
-            if p.is_dir() {
-                stack.push(p);
-            } else {
-                out.push(p);
+/// The files a model is made of: the file itself and, for a `.gltf`, the buffers and images
+/// its JSON names by (relative, percent-encoded) URI. Embedded `data:` URIs are in the file.
+fn model_files(model: &Path) -> Vec<PathBuf> {
+    let mut files = vec![model.to_path_buf()];
+    let is_gltf = model.extension().is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
+    let json: Option<serde_json::Value> =
+        if is_gltf { std::fs::read(model).ok().and_then(|b| serde_json::from_slice(&b).ok()) } else { None };
+    let folder = model.parent().unwrap_or(Path::new(""));
+    if let Some(json) = json {
+        for list in ["buffers", "images"] {
+            for item in json[list].as_array().into_iter().flatten() {
+                if let Some(uri) = item["uri"].as_str().filter(|u| !u.starts_with("data:")) {
+                    files.push(folder.join(percent_decode(uri)));
+                }
             }
         }
     }
-    out.sort();
-    out
+    files
+}
+
+/// `%XX` escapes decoded (glTF URIs are percent-encoded); anything malformed is kept as is.
+fn percent_decode(uri: &str) -> String {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        let hex = |c: u8| (c as char).to_digit(16);
+        if b[i] == b'%'
+            && i + 2 < b.len()
+            && let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2]))
+        {
+            out.push((h * 16 + l) as u8);
+            i += 3;
+        } else {
+            out.push(b[i]);
+            i += 1;
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
 }
 
 fn entry_paths(cache: &Path, stem: &str, key: &str, lights: usize) -> (PathBuf, PathBuf, Vec<PathBuf>) {
-    let base = cache.join(format!("{stem}-{key}"));
-    let exr = base.with_extension("exr");
-    let json = base.with_extension("json");
-    let vis = (0..lights).map(|k| base.with_extension(format!("visibility.{k}.exr"))).collect();
+    // Built as strings: `with_extension` would cut a stem with a dot in it.
+    let base = format!("{stem}-{key}");
+    let exr = cache.join(format!("{base}.exr"));
+    let json = cache.join(format!("{base}.json"));
+    let vis = (0..lights).map(|k| cache.join(format!("{base}.visibility.{k}.exr"))).collect();
     (exr, json, vis)
 }
 
@@ -115,7 +140,6 @@ fn read_exr(path: &Path, settings: &RenderSettings) -> Option<Vec<Vec3>> {
 
 /// The truth for `scene`: read from `cache` when an entry with this key is there and
 /// whole, else rendered with `traced` at `samples` and written there.
-#[allow(clippy::too_many_arguments)]
 pub fn truth(
     cache: &Path,
     stem: &str,
