@@ -124,14 +124,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
         return Err(SceneError::new(&png, "--out", "must name a .png file"));
     }
 
-    let threads = match args.threads {
-        Some(n) => n as usize,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| SceneError::new(&scene_path, "--threads", e.to_string()))?;
+    let (threads, pool) = thread_pool(args.threads, &scene_path)?;
 
     pool.install(|| {
         let scene = Scene::load(&file, &scene_path)?;
@@ -191,6 +184,22 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
         staged.commit().map_err(io)?;
         Ok(RenderOutcome { report, png: png.clone() })
     })
+}
+
+/// The worker pool for `--threads` (default: all cores), and its size; errors name `file`.
+pub fn thread_pool(
+    threads: Option<u32>,
+    file: &std::path::Path,
+) -> Result<(usize, rayon::ThreadPool), CliError> {
+    let threads = match threads {
+        Some(n) => n as usize,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| SceneError::new(file, "--threads", e.to_string()))?;
+    Ok((threads, pool))
 }
 
 fn progress_bar(rows: u64, quiet: bool) -> indicatif::ProgressBar {

@@ -17,62 +17,14 @@ use penumbra::config::MethodName;
 use penumbra::{RenderArgs, run_render};
 use std::path::{Path, PathBuf};
 
-type V3 = [f64; 3];
+#[path = "common/quads.rs"]
+mod quads;
+use quads::*;
 
 /// Light samples per shading point, for every method.
 const SAMPLES: u32 = 256;
 /// Image side in pixels.
 const SIZE: u32 = 64;
-
-fn sub(a: V3, b: V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn mul(a: V3, s: f64) -> V3 {
-    [a[0] * s, a[1] * s, a[2] * s]
-}
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: V3, b: V3) -> V3 {
-    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-}
-fn normalize(a: V3) -> V3 {
-    mul(a, 1.0 / dot(a, a).sqrt())
-}
-
-/// A rectangle: corners `center +- u/2 +- v/2`, facing along u x v.
-#[derive(Debug, Clone)]
-struct Quad {
-    center: V3,
-    u: V3,
-    v: V3,
-}
-
-/// A horizontal rectangle facing up, half sizes `hx` x `hz`.
-fn card(center: V3, hx: f64, hz: f64) -> Quad {
-    Quad { center, u: [2.0 * hx, 0.0, 0.0], v: [0.0, 0.0, -2.0 * hz] }
-}
-
-/// A closed box without a bottom standing on y = 0, facing out.
-fn box_on_floor(x: f64, z: f64, hx: f64, hz: f64, height: f64) -> Vec<Quad> {
-    let h = 0.5 * height;
-    vec![
-        card([x, height, z], hx, hz),
-        Quad { center: [x + hx, h, z], u: [0.0, 0.0, -2.0 * hz], v: [0.0, height, 0.0] },
-        Quad { center: [x - hx, h, z], u: [0.0, 0.0, 2.0 * hz], v: [0.0, height, 0.0] },
-        Quad { center: [x, h, z + hz], u: [2.0 * hx, 0.0, 0.0], v: [0.0, height, 0.0] },
-        Quad { center: [x, h, z - hz], u: [-2.0 * hx, 0.0, 0.0], v: [0.0, height, 0.0] },
-    ]
-}
-
-/// A square light of side `size` at `center`, emitting toward `target`.
-fn light_toward(center: V3, target: V3, size: f64) -> Quad {
-    let n = normalize(sub(target, center));
-    let helper = if n[1].abs() < 0.9 { [0.0, 1.0, 0.0] } else { [1.0, 0.0, 0.0] };
-    let u = normalize(cross(helper, n));
-    let v = cross(n, u); // so that cross(u, v) = n
-    Quad { center, u: mul(u, size), v: mul(v, size) }
-}
 
 /// A scene file: quads, one light, a camera at `eye` looking at the origin.
 fn scene_toml(quads: &[Quad], light: &Quad, eye: V3) -> String {

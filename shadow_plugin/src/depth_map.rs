@@ -468,6 +468,16 @@ impl DepthMap {
         self.light_from_world(p + n_geom * shift)
     }
 
+    /// Where a shading point (`p`, geometric normal `n_geom`) reads the map: its light-space
+    /// lookup point ([`DepthMap::lookup_point`]) and map point, or None where that falls
+    /// outside the map (every depth-map method answers those with traced rays).
+    #[inline]
+    pub fn query_point(&self, p: Vec3, n_geom: Vec3) -> Option<(Vec3, MapPoint)> {
+        let pl = self.lookup_point(p, n_geom, self.normal_offset);
+        let mp = self.locate(pl).filter(|mp| self.contains(mp.pixel, mp.pixel))?;
+        Some((pl, mp))
+    }
+
     #[inline]
     fn light_from_world(&self, p: Vec3) -> Vec3 {
         self.frame.light_from_world(p)

@@ -749,13 +749,12 @@ impl LightShadowing for EdgeTable {
         let st = self.state.as_ref().expect("prepare() runs before visibility()");
         let map = &st.map;
         let frame = &map.frame;
-        let p = map.lookup_point(q.p, q.n_geom, map.normal_offset);
         let fallback = || {
             self.fallbacks.fetch_add(1, Ordering::Relaxed);
             self.fallback.visibility(scene, q)
         };
         // Outside the map there is no data: traced rays answer (counted).
-        let Some(mp) = map.locate(p).filter(|mp| map.contains(mp.pixel, mp.pixel)) else { return fallback() };
+        let Some((p, mp)) = map.query_point(q.p, q.n_geom) else { return fallback() };
         if p.z <= map.z_min {
             self.early_outs.fetch_add(1, Ordering::Relaxed);
             return 1.0;

@@ -202,9 +202,8 @@ impl LightShadowing for Pcss {
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         let map = self.map.as_ref().expect("prepare() runs before visibility()");
         let frame = &map.frame;
-        let p = map.lookup_point(q.p, q.n_geom, map.normal_offset);
         // Outside the map there is no data: traced rays answer (counted).
-        let Some(mp) = map.locate(p).filter(|mp| map.contains(mp.pixel, mp.pixel)) else {
+        let Some((p, mp)) = map.query_point(q.p, q.n_geom) else {
             self.fallbacks.fetch_add(1, Ordering::Relaxed);
             return self.fallback.visibility(scene, q);
         };

@@ -470,14 +470,7 @@ fn family(m: MethodName) -> &'static str {
 /// Runs the bench. Progress lines go to stderr unless `--quiet`; the summary is returned.
 pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
     let out = args.out_dir();
-    let threads = match args.threads {
-        Some(n) => n as usize,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| SceneError::new(&out, "--threads", e.to_string()))?;
+    let (threads, pool) = crate::thread_pool(args.threads, &out)?;
     let repeats = if args.quick { 1 } else { args.repeats };
     let truth_samples =
         if args.quick { QUICK_TRUTH_SAMPLES.min(args.truth_samples) } else { args.truth_samples };

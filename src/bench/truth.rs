@@ -92,33 +92,14 @@ fn model_files(model: &Path) -> Vec<PathBuf> {
         for list in ["buffers", "images"] {
             for item in json[list].as_array().into_iter().flatten() {
                 if let Some(uri) = item["uri"].as_str().filter(|u| !u.starts_with("data:")) {
-                    files.push(folder.join(percent_decode(uri)));
+                    // glTF URIs are percent-encoded; the gltf crate decodes them with `urlencoding`.
+                    let path = urlencoding::decode(uri).map_or_else(|_| uri.to_string(), |p| p.into_owned());
+                    files.push(folder.join(path));
                 }
             }
         }
     }
     files
-}
-
-/// `%XX` escapes decoded (glTF URIs are percent-encoded); anything malformed is kept as is.
-fn percent_decode(uri: &str) -> String {
-    let b = uri.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        let hex = |c: u8| (c as char).to_digit(16);
-        if b[i] == b'%'
-            && i + 2 < b.len()
-            && let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2]))
-        {
-            out.push((h * 16 + l) as u8);
-            i += 3;
-        } else {
-            out.push(b[i]);
-            i += 1;
-        }
-    }
-    String::from_utf8_lossy(&out).into_owned()
 }
 
 fn entry_paths(cache: &Path, stem: &str, key: &str, lights: usize) -> (PathBuf, PathBuf, Vec<PathBuf>) {

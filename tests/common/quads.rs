@@ -1,0 +1,69 @@
+//! Scenes of rectangles for the rendering tests: small vector helpers, quads, boxes and a
+//! light aimed at a point. Included with `#[path]` by the test files that build such scenes.
+#![allow(dead_code)] // each test file uses its own subset
+
+pub type V3 = [f64; 3];
+
+pub fn add(a: V3, b: V3) -> V3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+pub fn sub(a: V3, b: V3) -> V3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+pub fn mul(a: V3, s: f64) -> V3 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+pub fn dot(a: V3, b: V3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+pub fn cross(a: V3, b: V3) -> V3 {
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+pub fn normalize(a: V3) -> V3 {
+    mul(a, 1.0 / dot(a, a).sqrt())
+}
+
+/// A rectangle: corners `center +- u/2 +- v/2`, facing along u x v.
+#[derive(Debug, Clone)]
+pub struct Quad {
+    pub center: V3,
+    pub u: V3,
+    pub v: V3,
+}
+
+/// A horizontal card facing up, half sizes `hx` x `hz`.
+pub fn card(center: V3, hx: f64, hz: f64) -> Quad {
+    Quad { center, u: [2.0 * hx, 0.0, 0.0], v: [0.0, 0.0, -2.0 * hz] }
+}
+
+/// A closed box without a bottom standing on y = 0, facing out: quads in the order top, +x,
+/// -x, +z, -z.
+pub fn box_on_floor(x: f64, z: f64, hx: f64, hz: f64, height: f64) -> Vec<Quad> {
+    let h = 0.5 * height;
+    vec![
+        card([x, height, z], hx, hz),
+        Quad { center: [x + hx, h, z], u: [0.0, 0.0, -2.0 * hz], v: [0.0, height, 0.0] },
+        Quad { center: [x - hx, h, z], u: [0.0, 0.0, 2.0 * hz], v: [0.0, height, 0.0] },
+        Quad { center: [x, h, z + hz], u: [2.0 * hx, 0.0, 0.0], v: [0.0, height, 0.0] },
+        Quad { center: [x, h, z - hz], u: [-2.0 * hx, 0.0, 0.0], v: [0.0, height, 0.0] },
+    ]
+}
+
+/// A closed box (six quads facing out) with its bottom at height `y0`.
+pub fn closed_block(x: f64, y0: f64, z: f64, hx: f64, hz: f64, height: f64) -> Vec<Quad> {
+    let mut quads = box_on_floor(x, z, hx, hz, height);
+    for q in &mut quads {
+        q.center[1] += y0;
+    }
+    quads.push(Quad { center: [x, y0, z], u: [2.0 * hx, 0.0, 0.0], v: [0.0, 0.0, 2.0 * hz] });
+    quads
+}
+
+/// A square light of side `size` at `center`, emitting toward `target`.
+pub fn light_toward(center: V3, target: V3, size: f64) -> Quad {
+    let n = normalize(sub(target, center));
+    let helper = if n[1].abs() < 0.9 { [0.0, 1.0, 0.0] } else { [1.0, 0.0, 0.0] };
+    let u = normalize(cross(helper, n));
+    let v = cross(n, u); // so that cross(u, v) = n
+    Quad { center, u: mul(u, size), v: mul(v, size) }
+}
