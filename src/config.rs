@@ -122,6 +122,8 @@ pub struct EdgeTableConfig {
     pub closed_volumes: Option<bool>,
     /// `plates`: a second, hidden layer (the first surface under each pixel's slab).
     pub hidden_layer: Option<bool>,
+    /// Receivers whose normal's cosine to the light is below this are traced.
+    pub grazing_cos: Option<f32>,
 }
 
 /// `[shadows.depth_march]`.
@@ -135,6 +137,7 @@ pub struct DepthMapConfig {
     pub normal_offset: Option<f32>,
     pub closed_volumes: Option<bool>,
     pub hidden_layer: Option<bool>,
+    pub grazing_cos: Option<f32>,
 }
 
 /// `[shadows.pcss]`: any of `shadow_plugin::PcssParams`' defaults overridden.
@@ -149,6 +152,8 @@ pub struct PcssConfig {
     pub slope_bias: Option<f32>,
     /// Grazing normal offset of lookups, in depth-map pixel footprints.
     pub normal_offset: Option<f32>,
+    /// Receivers whose normal's cosine to the light is below this are traced (default 0).
+    pub grazing_cos: Option<f32>,
 }
 
 impl PcssConfig {
@@ -165,6 +170,9 @@ impl PcssConfig {
         }
         if let Some(t) = self.normal_offset {
             p.depth_map.normal_offset = t;
+        }
+        if let Some(c) = self.grazing_cos {
+            p.depth_map.grazing_cos = c;
         }
         p
     }
@@ -212,6 +220,9 @@ impl EdgeTableConfig {
         if let Some(h) = self.hidden_layer {
             p.depth_map.hidden_layer = h;
         }
+        if let Some(c) = self.grazing_cos {
+            p.depth_map.grazing_cos = c;
+        }
         p
     }
 }
@@ -230,6 +241,7 @@ impl DepthMapConfig {
             normal_offset: self.normal_offset.unwrap_or(d.normal_offset),
             closed_volumes: self.closed_volumes.unwrap_or(d.closed_volumes),
             hidden_layer: self.hidden_layer.unwrap_or(d.hidden_layer),
+            grazing_cos: self.grazing_cos.unwrap_or(d.grazing_cos),
         }
     }
 }
@@ -255,6 +267,9 @@ fn check_depth_map(p: &DepthMapParams, file: &Path, table: &str) -> Result<(), S
     }
     if !(p.slab_thickness.is_finite() && p.slab_thickness >= 0.0) {
         return Err(SceneError::new(file, format!("{table}.slab_thickness"), "must be finite and >= 0"));
+    }
+    if !(0.0..1.0).contains(&p.grazing_cos) {
+        return Err(SceneError::new(file, format!("{table}.grazing_cos"), "must be in [0, 1)"));
     }
     Ok(())
 }
@@ -406,5 +421,30 @@ mod tests {
         let e = ShadowsConfig::from_table(&table("method = \"traced\"\n[pcss]\nnormal_offset = nan"), p)
             .unwrap_err();
         assert_eq!(e.key, "shadows.pcss.normal_offset", "{e}");
+    }
+
+    #[test]
+    fn grazing_cos_is_read_per_table_and_bounded() {
+        let p = Path::new("s.toml");
+        let c = ShadowsConfig::from_table(
+            &table("[edge_table]\ngrazing_cos = 0.05\n[depth_march]\ngrazing_cos = 0.0\n[pcss]\ngrazing_cos = 0.3"),
+            p,
+        )
+        .unwrap();
+        assert_eq!(c.edge_table.params().depth_map.grazing_cos, 0.05);
+        assert_eq!(c.depth_march.params().grazing_cos, 0.0);
+        assert_eq!(c.pcss.params().depth_map.grazing_cos, 0.3);
+        // Defaults: the policy for the two marching methods, none for the PCSS baseline.
+        let d = ShadowsConfig::default();
+        assert_eq!(
+            d.edge_table.params().depth_map.grazing_cos,
+            shadow_plugin::depth_map::DEFAULT_GRAZING_COS
+        );
+        assert_eq!(d.depth_march.params().grazing_cos, shadow_plugin::depth_map::DEFAULT_GRAZING_COS);
+        assert_eq!(d.pcss.params().depth_map.grazing_cos, 0.0);
+        for (t, bad) in [("edge_table", "-0.1"), ("depth_march", "1.0"), ("pcss", "nan")] {
+            let e = ShadowsConfig::from_table(&table(&format!("[{t}]\ngrazing_cos = {bad}")), p).unwrap_err();
+            assert_eq!(e.key, format!("shadows.{t}.grazing_cos"), "{e}");
+        }
     }
 }

@@ -52,6 +52,7 @@ pub struct DepthMarch {
     map: Option<DepthMap>,
     fallback: Traced,
     fallbacks: AtomicU64,
+    grazing: AtomicU64,
     early_outs: AtomicU64,
     clipped: AtomicU64,
 }
@@ -68,6 +69,7 @@ impl DepthMarch {
             map: None,
             fallback: Traced::new(TracedParams { samples }),
             fallbacks: AtomicU64::new(0),
+            grazing: AtomicU64::new(0),
             early_outs: AtomicU64::new(0),
             clipped: AtomicU64::new(0),
         }
@@ -87,6 +89,11 @@ impl LightShadowing for DepthMarch {
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         let map = self.map.as_ref().expect("prepare() runs before visibility()");
         let frame = &map.frame;
+        if map.grazing(q.p, q.n_geom) {
+            self.grazing.fetch_add(1, Ordering::Relaxed);
+            self.fallbacks.fetch_add(1, Ordering::Relaxed);
+            return self.fallback.visibility(scene, q);
+        }
         // Outside the map there is no data: traced rays answer (counted).
         let Some((p, mp)) = map.query_point(q.p, q.n_geom) else {
             self.fallbacks.fetch_add(1, Ordering::Relaxed);
@@ -119,6 +126,7 @@ impl LightShadowing for DepthMarch {
     fn counters(&self) -> Vec<(&'static str, u64)> {
         let mut c = vec![
             ("fallbacks", self.fallbacks.load(Ordering::Relaxed)),
+            ("fallbacks_grazing", self.grazing.load(Ordering::Relaxed)),
             ("early_outs", self.early_outs.load(Ordering::Relaxed)),
             ("regions_clipped", self.clipped.load(Ordering::Relaxed)),
             ("depth_map_bytes", self.map.as_ref().map_or(0, |m| m.bytes())),

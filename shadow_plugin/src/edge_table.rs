@@ -28,6 +28,7 @@
 //! | `normal_offset` | float | 1.0 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
 //! | `hidden_layer` | bool | true | `plates`: a second depth layer, the first surface under each pixel's slab, read like the first (a ray is blocked by a slab of either) |
 //! | `closed_volumes` | bool | true | `plates`: a closed mesh is solid from its front face down to its back face (a second depth layer) |
+//! | `grazing_cos` | float | 0.2 | receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
 //!
 //! `samples` (`[shadows]`) is the number of rays per mask (at most 4096).
 //!
@@ -514,6 +515,7 @@ pub struct EdgeTable {
     lookups: AtomicU64,
     early_outs: AtomicU64,
     fallbacks: AtomicU64,
+    grazing: AtomicU64,
     clipped: AtomicU64,
 }
 
@@ -542,6 +544,7 @@ impl EdgeTable {
             lookups: AtomicU64::new(0),
             early_outs: AtomicU64::new(0),
             fallbacks: AtomicU64::new(0),
+            grazing: AtomicU64::new(0),
             clipped: AtomicU64::new(0),
         }
     }
@@ -650,9 +653,11 @@ impl LightShadowing for EdgeTable {
         // ray footprints of a point at depth z read through a mask built at z0 are off by
         // z0 / z. Measured against levels at the centres of equal log-depth bins and at the
         // range's ends: see ARCHITECTURE.md.
+        // Grazed receivers are traced and take no part.
         let mut log_depths: Vec<f32> = ctx
             .visible
             .iter()
+            .filter(|v| !map.grazing(v.p, v.n_geom))
             .map(|v| map.frame.light_from_world(v.p).z)
             .filter(|&z| z > map.z_min && z.is_finite())
             .map(f32::ln)
@@ -683,6 +688,7 @@ impl LightShadowing for EdgeTable {
         let mut needed: Vec<f32> = ctx
             .visible
             .par_iter()
+            .filter(|v| !map.grazing(v.p, v.n_geom))
             .filter_map(|v| {
                 let p = map.frame.light_from_world(v.p);
                 let mp = map.locate(p)?;
@@ -753,6 +759,10 @@ impl LightShadowing for EdgeTable {
             self.fallbacks.fetch_add(1, Ordering::Relaxed);
             self.fallback.visibility(scene, q)
         };
+        if map.grazing(q.p, q.n_geom) {
+            self.grazing.fetch_add(1, Ordering::Relaxed);
+            return fallback();
+        }
         // Outside the map there is no data: traced rays answer (counted).
         let Some((p, mp)) = map.query_point(q.p, q.n_geom) else { return fallback() };
         if p.z <= map.z_min {
@@ -820,6 +830,7 @@ impl LightShadowing for EdgeTable {
             ("edge_lookups", self.lookups.load(Ordering::Relaxed)),
             ("early_outs", self.early_outs.load(Ordering::Relaxed)),
             ("fallbacks", self.fallbacks.load(Ordering::Relaxed)),
+            ("fallbacks_grazing", self.grazing.load(Ordering::Relaxed)),
             ("regions_clipped", self.clipped.load(Ordering::Relaxed)),
         ];
         c.extend(self.fallback.counters().into_iter().map(|(k, v)| (fallback_name(k), v)));

@@ -62,6 +62,7 @@
 //! | `blocker_samples` | int | 32 | light samples read by the blocker search (1 to 4096) |
 //! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
 //! | `normal_offset` | float | 1.0 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
+//! | `grazing_cos` | float | 0 | receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
 //!
 //! `samples` (`[shadows]`) is the number of PCF taps (at most 4096).
 //!
@@ -93,7 +94,11 @@ pub struct PcssParams {
 
 impl Default for PcssParams {
     fn default() -> Self {
-        Self { depth_map: DepthMapParams::new(256), blocker_samples: 32 }
+        // No grazing fallback: the real-time baseline traces only what falls off its map.
+        Self {
+            depth_map: DepthMapParams { grazing_cos: 0.0, ..DepthMapParams::new(256) },
+            blocker_samples: 32,
+        }
     }
 }
 
@@ -108,6 +113,7 @@ pub struct Pcss {
     map: Option<DepthMap>,
     fallback: Traced,
     fallbacks: AtomicU64,
+    grazing: AtomicU64,
     early_outs: AtomicU64,
     blocker_searches: AtomicU64,
     pcf_taps: AtomicU64,
@@ -126,6 +132,7 @@ impl Pcss {
             map: None,
             fallback: Traced::new(TracedParams { samples }),
             fallbacks: AtomicU64::new(0),
+            grazing: AtomicU64::new(0),
             early_outs: AtomicU64::new(0),
             blocker_searches: AtomicU64::new(0),
             pcf_taps: AtomicU64::new(0),
@@ -202,6 +209,11 @@ impl LightShadowing for Pcss {
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         let map = self.map.as_ref().expect("prepare() runs before visibility()");
         let frame = &map.frame;
+        if map.grazing(q.p, q.n_geom) {
+            self.grazing.fetch_add(1, Ordering::Relaxed);
+            self.fallbacks.fetch_add(1, Ordering::Relaxed);
+            return self.fallback.visibility(scene, q);
+        }
         // Outside the map there is no data: traced rays answer (counted).
         let Some((p, mp)) = map.query_point(q.p, q.n_geom) else {
             self.fallbacks.fetch_add(1, Ordering::Relaxed);
@@ -266,6 +278,7 @@ impl LightShadowing for Pcss {
     fn counters(&self) -> Vec<(&'static str, u64)> {
         let mut c = vec![
             ("fallbacks", self.fallbacks.load(Ordering::Relaxed)),
+            ("fallbacks_grazing", self.grazing.load(Ordering::Relaxed)),
             ("early_outs", self.early_outs.load(Ordering::Relaxed)),
             ("blocker_searches", self.blocker_searches.load(Ordering::Relaxed)),
             ("pcf_taps", self.pcf_taps.load(Ordering::Relaxed)),
