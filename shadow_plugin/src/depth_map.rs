@@ -537,6 +537,13 @@ impl DepthMap {
         Some(MapPoint { pixel: [cell.x as i32, cell.y as i32], offset: g - cell, z: p_light.z })
     }
 
+    /// A lower bound of the (first layer's, so every layer's) biased depths over the pixel
+    /// rectangle [lo, hi], clipped to the map: a few min-pyramid reads.
+    #[inline]
+    pub fn min_depth(&self, lo: [i32; 2], hi: [i32; 2]) -> f32 {
+        self.pyramid.min(lo, hi)
+    }
+
     /// Biased depth at pixel (i, j); +inf outside the map.
     #[inline]
     pub fn at(&self, i: i32, j: i32) -> f32 {

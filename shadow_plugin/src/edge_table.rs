@@ -152,6 +152,24 @@ struct Cell {
     in_first: f32,
 }
 
+/// A square block of a mask's region (`BLOCK` x `BLOCK` pixels, aligned to the model
+/// point's pixel) for hierarchical culling (technical note 10.3b): its cells are
+/// `cells[start..end]`, in order of `in_first`, inside the pixel box `lo..=hi` relative to
+/// the model point's pixel.
+#[derive(Debug, Clone, Copy)]
+struct Block {
+    lo: [i32; 2],
+    hi: [i32; 2],
+    /// The lowest crossing into any of its pixels.
+    first: f32,
+    start: u32,
+    end: u32,
+}
+
+/// Side of a culling block, in pixels. A block is skipped when the highest floor the map
+/// has anywhere over it (one min-depth pyramid lookup) is below every crossing into it.
+const BLOCK: i32 = 8;
+
 /// One edge-table mask.
 #[derive(Debug, Clone)]
 pub struct Mask {
@@ -161,8 +179,12 @@ pub struct Mask {
     /// Light samples (light frame, z = 0).
     pub samples: Vec<Vec2>,
     words: usize,
-    /// Cell 0 is the own pixel; the rest in order of `in_first`.
+    /// Cell 0 is the own pixel; the rest grouped by block (blocks in order of `first`), in
+    /// order of `in_first` within a block.
     cells: Vec<Cell>,
+    blocks: Vec<Block>,
+    /// Whether queries skip blocks by their highest floor (off only to measure it).
+    cull_blocks: bool,
     /// In order of `first`.
     edges: Vec<SideTable>,
     /// Crossing heights, grouped by edge, ascending within an edge.
@@ -270,9 +292,21 @@ impl Mask {
         let mut edge_order: Vec<u32> = (0..edges.len() as u32).collect();
         edge_order
             .sort_by(|&a, &b| edges[a as usize].first.total_cmp(&edges[b as usize].first).then(a.cmp(&b)));
+        let block_of = |c: &Cell| [c.dx.div_euclid(BLOCK), c.dy.div_euclid(BLOCK)];
+        let mut block_first: std::collections::HashMap<[i32; 2], f32> = std::collections::HashMap::new();
+        for c in &cells[1..] {
+            let f = block_first.entry(block_of(c)).or_insert(f32::INFINITY);
+            *f = f.min(c.in_first);
+        }
         let mut cell_order: Vec<u32> = (1..cells.len() as u32).collect();
         cell_order.sort_by(|&a, &b| {
-            cells[a as usize].in_first.total_cmp(&cells[b as usize].in_first).then(a.cmp(&b))
+            let (ca, cb) = (&cells[a as usize], &cells[b as usize]);
+            let (ka, kb) = (block_of(ca), block_of(cb));
+            block_first[&ka]
+                .total_cmp(&block_first[&kb])
+                .then(ka.cmp(&kb))
+                .then(ca.in_first.total_cmp(&cb.in_first))
+                .then(a.cmp(&b))
         });
         cell_order.insert(0, 0);
         let mut new_edge = vec![0u32; edges.len()];
@@ -298,11 +332,50 @@ impl Mask {
                 SideTable { from: new_cell[e.from as usize], to: new_cell[e.to as usize], ..e }
             })
             .collect();
-        Mask { offset, depth, samples, words, cells, edges, heights, masks, full, h_max: h_stop }
+        let mut blocks: Vec<Block> = Vec::new();
+        for (k, c) in cells.iter().enumerate().skip(1) {
+            match blocks.last_mut() {
+                Some(b) if block_of(&cells[b.start as usize]) == block_of(c) => {
+                    b.lo = [b.lo[0].min(c.dx), b.lo[1].min(c.dy)];
+                    b.hi = [b.hi[0].max(c.dx), b.hi[1].max(c.dy)];
+                    b.first = b.first.min(c.in_first);
+                    b.end = k as u32 + 1;
+                }
+                _ => blocks.push(Block {
+                    lo: [c.dx, c.dy],
+                    hi: [c.dx, c.dy],
+                    first: c.in_first,
+                    start: k as u32,
+                    end: k as u32 + 1,
+                }),
+            }
+        }
+        Mask {
+            offset,
+            depth,
+            samples,
+            words,
+            cells,
+            blocks,
+            cull_blocks: true,
+            edges,
+            heights,
+            masks,
+            full,
+            h_max: h_stop,
+        }
+    }
+
+    /// The same mask with hierarchical culling off: the same bits, every pixel visited (for
+    /// measuring the culling side by side).
+    #[doc(hidden)]
+    pub fn without_block_culling(self) -> Self {
+        Self { cull_blocks: false, ..self }
     }
 
     pub fn bytes(&self) -> u64 {
         (self.cells.len() * std::mem::size_of::<Cell>()
+            + self.blocks.len() * std::mem::size_of::<Block>()
             + self.edges.len() * std::mem::size_of::<SideTable>()
             + self.heights.len() * 4
             + self.masks.len() * 8
@@ -409,50 +482,77 @@ impl Mask {
                 // one floor to under a higher one.
                 let mut in_mask = [0u64; MAX_WORDS];
                 let mut out_mask = [0u64; MAX_WORDS];
-                for layer in 0..layers {
-                    for (k, c) in self.cells.iter().enumerate() {
-                        if k > 0 && c.in_first >= h_stop {
-                            break;
+                // One pixel of one layer: false once every ray is blocked.
+                let mut visit = |layer: usize, k: usize, out: &mut [u64], stats: &mut QueryStats| -> bool {
+                    let c = &self.cells[k];
+                    let h = layer_floor(layer, c);
+                    if k > 0 && h < c.in_first {
+                        return true; // no ray enters below this floor: the floor blocks nothing
+                    }
+                    // In: entered at or below the floor (the own pixel: P itself, at 0).
+                    let in_m = &mut in_mask[..words];
+                    if k == 0 {
+                        if h < 0.0 {
+                            return true; // P above its own floor: that floor blocks nothing
                         }
-                        let h = layer_floor(layer, c);
-                        if k > 0 && h < c.in_first {
-                            continue; // no ray enters below this floor: the floor blocks nothing
-                        }
-                        // In: entered at or below the floor (the own pixel: P itself, at 0).
-                        let in_m = &mut in_mask[..words];
-                        if k == 0 {
-                            if h < 0.0 {
-                                continue; // P above its own floor: that floor blocks nothing
-                            }
-                            in_m.iter_mut().for_each(|w| *w = 0);
-                        } else {
-                            in_m.copy_from_slice(&self.full);
-                            for &e in c.in_edges.iter().filter(|&&e| e != NONE) {
-                                and(in_m, below(&self.edges[e as usize], h));
-                                stats.lookups += 1;
-                            }
-                            // Only rays that entered under this floor and are not blocked yet can
-                            // change the result: skip the out-sides when there are none.
-                            if in_m.iter().zip(out.iter()).all(|(i, o)| !*i & *o == 0) {
-                                continue;
-                            }
-                        }
-                        // Out: left at or below the floor (plates: the slab's bottom).
-                        let out_m = &mut out_mask[..words];
-                        out_m.copy_from_slice(&self.full);
-                        let h_exit = exit_height(layer, c, h);
-                        for &e in c.out_edges.iter().filter(|&&e| e != NONE) {
-                            and(out_m, below(&self.edges[e as usize], h_exit));
+                        in_m.iter_mut().for_each(|w| *w = 0);
+                    } else {
+                        in_m.copy_from_slice(&self.full);
+                        for &e in c.in_edges.iter().filter(|&&e| e != NONE) {
+                            and(in_m, below(&self.edges[e as usize], h));
                             stats.lookups += 1;
                         }
-                        let mut any = 0u64;
-                        for ((o, i), x) in out.iter_mut().zip(in_m.iter()).zip(out_m.iter()) {
-                            *o &= *i | !*x;
-                            any |= *o;
+                        // Only rays that entered under this floor and are not blocked yet can
+                        // change the result: skip the out-sides when there are none.
+                        if in_m.iter().zip(out.iter()).all(|(i, o)| !*i & *o == 0) {
+                            return true;
                         }
-                        if any == 0 {
-                            stats.early_out = true;
-                            return stats;
+                    }
+                    // Out: left at or below the floor (plates: the slab's bottom).
+                    let out_m = &mut out_mask[..words];
+                    out_m.copy_from_slice(&self.full);
+                    let h_exit = exit_height(layer, c, h);
+                    for &e in c.out_edges.iter().filter(|&&e| e != NONE) {
+                        and(out_m, below(&self.edges[e as usize], h_exit));
+                        stats.lookups += 1;
+                    }
+                    let mut any = 0u64;
+                    for ((o, i), x) in out.iter_mut().zip(in_m.iter()).zip(out_m.iter()) {
+                        *o &= *i | !*x;
+                        any |= *o;
+                    }
+                    any != 0
+                };
+                // Each pixel's verdict is ANDed in independently of the others, so the order
+                // of pixels and layers is free: the own pixel, then block by block.
+                for layer in 0..layers {
+                    if !visit(layer, 0, out, &mut stats) {
+                        stats.early_out = true;
+                        return stats;
+                    }
+                }
+                for b in &self.blocks {
+                    if b.first >= h_stop {
+                        break; // this block and every later one is entered only above the stop
+                    }
+                    // The highest floor over the block, of either layer (the hidden layer
+                    // lies below the first): below every crossing into it, no pixel of it
+                    // blocks anything. Measured: see `benches/edge_table.rs` (flat_unshrunk).
+                    let lo = [base[0] + b.lo[0], base[1] + b.lo[1]];
+                    let hi = [base[0] + b.hi[0], base[1] + b.hi[1]];
+                    if self.cull_blocks && floor_height(map.min_depth(lo, hi), pz) < b.first {
+                        stats.blocks_culled += 1;
+                        continue;
+                    }
+                    for layer in 0..layers {
+                        for k in b.start as usize..b.end as usize {
+                            if self.cells[k].in_first >= h_stop {
+                                break;
+                            }
+                            if !visit(layer, k, out, &mut stats) {
+                                stats.early_out = true;
+                                return stats;
+                            }
                         }
                     }
                 }
@@ -504,6 +604,8 @@ pub enum Heightfield {
 pub struct QueryStats {
     pub lookups: u64,
     pub early_out: bool,
+    /// Blocks of the region skipped whole by hierarchical culling.
+    pub blocks_culled: u64,
 }
 
 /// The plugin: one depth map and a grid of masks per light and frame.
@@ -514,6 +616,7 @@ pub struct EdgeTable {
     fallback: Traced,
     lookups: AtomicU64,
     early_outs: AtomicU64,
+    blocks_culled: AtomicU64,
     fallbacks: AtomicU64,
     grazing: AtomicU64,
     clipped: AtomicU64,
@@ -543,6 +646,7 @@ impl EdgeTable {
             fallback: Traced::new(TracedParams { samples }),
             lookups: AtomicU64::new(0),
             early_outs: AtomicU64::new(0),
+            blocks_culled: AtomicU64::new(0),
             fallbacks: AtomicU64::new(0),
             grazing: AtomicU64::new(0),
             clipped: AtomicU64::new(0),
@@ -781,7 +885,7 @@ impl LightShadowing for EdgeTable {
         let count = self.select(st, mp.offset, p.z, &mut chosen);
         let mut visible = [0u64; MAX_WORDS];
         let mut above = [0u64; MAX_WORDS];
-        let (mut v, mut lookups, mut early_outs) = (0.0f32, 0u64, 0u64);
+        let (mut v, mut lookups, mut early_outs, mut culled) = (0.0f32, 0u64, 0u64, 0u64);
         for &(m, shift, w) in &chosen[..count] {
             let mask = &st.masks[m];
             if h_stop > mask.h_max {
@@ -798,6 +902,7 @@ impl LightShadowing for EdgeTable {
             );
             lookups += stats.lookups;
             early_outs += stats.early_out as u64;
+            culled += stats.blocks_culled;
             let all_above =
                 samples::above_horizon(frame, &mask.samples, q.p, q.n_shading, &mut above[..words]);
             let (n_visible, n_above) = if all_above {
@@ -809,6 +914,9 @@ impl LightShadowing for EdgeTable {
         }
         self.lookups.fetch_add(lookups, Ordering::Relaxed);
         self.early_outs.fetch_add(early_outs, Ordering::Relaxed);
+        if culled > 0 {
+            self.blocks_culled.fetch_add(culled, Ordering::Relaxed);
+        }
         v.clamp(0.0, 1.0)
     }
 
@@ -829,6 +937,7 @@ impl LightShadowing for EdgeTable {
             ("depth_map_bytes", map_bytes),
             ("edge_lookups", self.lookups.load(Ordering::Relaxed)),
             ("early_outs", self.early_outs.load(Ordering::Relaxed)),
+            ("blocks_culled", self.blocks_culled.load(Ordering::Relaxed)),
             ("fallbacks", self.fallbacks.load(Ordering::Relaxed)),
             ("fallbacks_grazing", self.grazing.load(Ordering::Relaxed)),
             ("regions_clipped", self.clipped.load(Ordering::Relaxed)),
