@@ -137,6 +137,9 @@ fn main() {
     let mut one_layer = d;
     one_layer.depth_map.hidden_layer = false;
     configs.push(("edge_table default, hidden_layer off".to_string(), one_layer));
+    let mut no_grazing = d;
+    no_grazing.depth_map.grazing_cos = 0.0;
+    configs.push(("edge_table default, grazing_cos 0 (off)".to_string(), no_grazing));
 
     for path in &scenes {
         let file = SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));

@@ -134,6 +134,8 @@ fn chart<DB: DrawingBackend>(
     if text {
         mesh.x_desc("shadow cost (s): shadow_prepare + render time above `none`")
             .y_desc("visibility RMSE against the truth")
+            .x_label_formatter(&|v| tick_label(*v))
+            .y_label_formatter(&|v| tick_label(*v))
             .label_style(("sans-serif", 14));
     } else {
         mesh.disable_x_mesh().disable_y_mesh().x_labels(0).y_labels(0);
@@ -181,9 +183,24 @@ fn chart<DB: DrawingBackend>(
     Ok(())
 }
 
+/// A log axis's tick value without float noise (0.30000000000000004 prints as 0.3).
+fn tick_label(v: f64) -> String {
+    let s = format!("{v:.6}");
+    let s = s.trim_end_matches('0').trim_end_matches('.');
+    if s.is_empty() || s == "-" { "0".to_string() } else { s.to_string() }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn tick_labels_have_no_float_noise() {
+        assert_eq!(tick_label(0.30000000000000004), "0.3");
+        assert_eq!(tick_label(10.0), "10");
+        assert_eq!(tick_label(0.001), "0.001");
+        assert_eq!(tick_label(2.5e-7), "0");
+    }
 
     #[test]
     fn the_pareto_front_keeps_only_undominated_points() {
