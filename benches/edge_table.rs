@@ -74,7 +74,7 @@
 //! What they show: in a small region the query beats marching by 3.2-3.4x (256 samples) and
 //! 8-15x (1024); in a large one it does not (0.68-0.84x at 256 samples, 1.7-2.0x at 1024):
 //! the plate path does 2,446 / 3,836 lookups (for 7,417 / 29,686 crossings) at 14-21 ns
-//! each. Block culling (8 x 8 pixel blocks skipped by one min-pyramid read when the highest
+//! each. Block culling (8 x 8 pixel blocks skipped by a min-pyramid lookup when the highest
 //! floor over them is below every crossing into them) makes a region of lit floor 6-10x
 //! cheaper and the plate case 10-16% cheaper; on sauerbraten-zdm2 at 320x240 the whole
 //! shadow cost fell from 14.0 s to 4.25 s (same image; 4 x 4 blocks 5.7 s, 16 x 16 5.6 s).

@@ -122,7 +122,8 @@ pub struct EdgeTableConfig {
     pub closed_volumes: Option<bool>,
     /// `plates`: a second, hidden layer (the first surface under each pixel's slab).
     pub hidden_layer: Option<bool>,
-    /// Receivers whose normal's cosine to the light is below this are traced.
+    /// Receivers whose normal's cosine to the direction of the light's centre is below this
+    /// are traced.
     pub grazing_cos: Option<f32>,
 }
 
@@ -152,7 +153,8 @@ pub struct PcssConfig {
     pub slope_bias: Option<f32>,
     /// Grazing normal offset of lookups, in depth-map pixel footprints.
     pub normal_offset: Option<f32>,
-    /// Receivers whose normal's cosine to the light is below this are traced (default 0).
+    /// Receivers whose normal's cosine to the direction of the light's centre is below this
+    /// are traced (default 0).
     pub grazing_cos: Option<f32>,
 }
 

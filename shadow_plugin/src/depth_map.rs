@@ -146,7 +146,9 @@ pub struct DepthMap {
     /// Image-plane coordinates (x/z, y/z) of the map's lower corner, and the pixel pitch.
     pub origin: Vec2,
     pub pitch: f32,
-    /// Biased planar depth per pixel, row-major from `origin`; +inf where no surface.
+    /// Biased planar depth per pixel, row-major from `origin`; +inf where no surface. Read
+    /// only: the min-depth pyramid (region shrinking, block culling) is built from it when
+    /// the map is made, and bounds the hidden layer's depths too.
     pub depth: Vec<f32>,
     /// The smallest biased depth in the map (+inf for an empty map).
     pub z_min: f32,
@@ -158,7 +160,8 @@ pub struct DepthMap {
     /// face lies below its front face (see [`DepthMapParams::closed_volumes`]).
     pub bottom: Vec<f32>,
     /// The hidden layer ([`DepthMapParams::hidden_layer`]): per pixel the floor and slab
-    /// bottom of the first surface below `bottom` (+inf where none); empty when off.
+    /// bottom of the first surface below `bottom` (+inf where none); empty when off. Read
+    /// only, never above `depth`.
     pub depth2: Vec<f32>,
     pub bottom2: Vec<f32>,
     /// See [`DepthMap::lookup_point`].
@@ -306,12 +309,18 @@ impl Surfaces<'_> {
 
 impl DepthMap {
     /// Fits the frustum to the receivers in `visible` and renders the map.
+    ///
+    /// # Panics
+    /// A negative or non-finite `slope_bias` or `slab_thickness` (checked at the config
+    /// boundary): every layer must lie at or below the one before it.
     pub fn build(
         scene: &Scene,
         light: &RectLight,
         visible: &[VisiblePoint],
         params: &DepthMapParams,
     ) -> Self {
+        assert!(params.slope_bias >= 0.0 && params.slope_bias.is_finite(), "slope_bias");
+        assert!(params.slab_thickness >= 0.0 && params.slab_thickness.is_finite(), "slab_thickness");
         let frame = LightFrame::new(light);
         let res = params.resolution.max(1);
         let eps = scene.epsilon.eps;
@@ -421,6 +430,9 @@ impl DepthMap {
     }
 
     /// A map over a given heightfield (biased depths, row-major), for tests and tools.
+    ///
+    /// # Panics
+    /// A depth count other than `resolution`^2, or a NaN depth.
     pub fn from_depths(
         frame: LightFrame,
         origin: Vec2,
@@ -429,6 +441,7 @@ impl DepthMap {
         depth: Vec<f32>,
     ) -> Self {
         assert_eq!(depth.len(), (resolution * resolution) as usize);
+        assert!(!depth.iter().any(|d| d.is_nan()), "NaN depth");
         let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
         let pyramid = MinPyramid::new(&depth, resolution as usize);
         DepthMap {
@@ -461,7 +474,8 @@ impl DepthMap {
     /// note 10.3a): starting from the map's nearest depth, the filter region is shrunk to the
     /// nearest depth inside it, a few times. Each depth is a lower bound of the depths in
     /// the region the previous one implied, so a ray is blocked iff it is blocked below it.
-    /// Outside the map there is no occluder (the frustum's margin is sized for the casters);
+    /// Outside the map there is no occluder (the frustum's margin is sized for the casters,
+    /// seen from the nearest receiver: a deeper receiver's region can reach past it);
     /// the flag says whether the final region reaches outside it.
     pub fn stop_depth(&self, pixel: [i32; 2], pz: f32) -> (f32, bool) {
         let mut z = self.z_min;
@@ -605,9 +619,17 @@ impl DepthMap {
 
     /// The same map with a hidden layer (floors and slab bottoms, biased depths, row-major;
     /// +inf where empty), for tests and tools.
+    ///
+    /// # Panics
+    /// Lengths other than the map's, or a NaN depth.
     pub fn with_hidden_layer(mut self, depth2: Vec<f32>, bottom2: Vec<f32>) -> Self {
         assert_eq!(depth2.len(), self.depth.len());
         assert_eq!(bottom2.len(), self.depth.len());
+        assert!(!depth2.iter().chain(&bottom2).any(|d| d.is_nan()), "NaN depth");
+        // The hidden layer lies below the first (the min-depth pyramid, built from the first,
+        // bounds both: region shrinking and block culling rely on it), and is empty where
+        // the first is.
+        let depth2: Vec<f32> = depth2.iter().zip(&self.depth).map(|(d2, d)| d2.max(*d)).collect();
         self.bottom2 = bottom2.iter().zip(&depth2).map(|(b, d)| b.max(*d)).collect();
         self.depth2 = depth2;
         self
@@ -616,5 +638,41 @@ impl DepthMap {
     pub fn bytes(&self) -> u64 {
         ((self.depth.len() + self.bottom.len() + self.depth2.len() + self.bottom2.len())
             * std::mem::size_of::<f32>()) as u64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn map(depth: Vec<f32>) -> DepthMap {
+        let frame =
+            LightFrame { origin: Vec3::ZERO, x: Vec3::X, y: Vec3::Y, z: Vec3::Z, half_size: Vec2::ONE };
+        DepthMap::from_depths(frame, Vec2::splat(-1.0), 0.5, 4, depth)
+    }
+
+    /// The min-depth pyramid is built from the first layer and bounds the hidden one: a
+    /// hidden layer given above the first is moved down to it, and is empty where the first
+    /// is (region shrinking and block culling rely on it).
+    #[test]
+    fn the_hidden_layer_never_lies_above_the_first() {
+        let mut depth = vec![2.0f32; 16];
+        depth[5] = f32::INFINITY;
+        let m = map(depth.clone()).with_hidden_layer(vec![1.0; 16], vec![1.5; 16]);
+        for k in 0..16 {
+            assert!(m.depth2[k] >= m.depth[k] && m.bottom2[k] >= m.depth2[k], "pixel {k}");
+        }
+        assert_eq!(m.depth2[5], f32::INFINITY);
+        assert_eq!(m.min_depth([0, 0], [3, 3]), 2.0);
+        let below = map(depth).with_hidden_layer(vec![3.0; 16], vec![3.5; 16]);
+        assert_eq!((below.depth2[0], below.bottom2[0]), (3.0, 3.5));
+    }
+
+    #[test]
+    #[should_panic(expected = "NaN depth")]
+    fn a_nan_depth_is_refused() {
+        let mut depth = vec![2.0f32; 16];
+        depth[3] = f32::NAN;
+        map(depth);
     }
 }

@@ -3,8 +3,10 @@
 //! that edge tables must beat, and their test oracle: it uses the same depth map, the same
 //! crossing arithmetic and the same bias.
 //!
-//! Scene file: `method = "depth_march"`, with `[shadows.depth_march]` `depth_map` (pixels per
-//! side, default 256) and `slope_bias` (pixels, default 1.0).
+//! Scene file: `method = "depth_march"`, with `[shadows.depth_march]` holding the depth-map
+//! keys of `[shadows.edge_table]` and their defaults: `depth_map` (256), `heightfield`
+//! (`plates`), `slope_bias` (1.0), `slab_thickness` (2.0), `normal_offset` (1.0),
+//! `closed_volumes` and `hidden_layer` (true), `grazing_cos` (0.2).
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};

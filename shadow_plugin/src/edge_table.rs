@@ -78,7 +78,9 @@ pub struct EdgeTableParams {
 }
 
 impl EdgeTableParams {
-    /// The paper's configuration: 256^2 map, 4 x 4 x 1 masks, nearest mask.
+    /// The paper's configuration: 256^2 map, 4 x 4 x 1 masks, nearest mask, walls and floors;
+    /// the map itself is this crate's (closed volumes and the hidden layer, which `shells`
+    /// does not read, and grazed receivers traced).
     pub const fn paper() -> Self {
         Self {
             depth_map: DepthMapParams::new(256),
@@ -167,7 +169,8 @@ struct Block {
 }
 
 /// Side of a culling block, in pixels. A block is skipped when the highest floor the map
-/// has anywhere over it (one min-depth pyramid lookup) is below every crossing into it.
+/// has anywhere over it (one min-depth pyramid lookup, at most 25 reads) is below every
+/// crossing into it.
 const BLOCK: i32 = 8;
 
 /// One edge-table mask.
@@ -298,15 +301,15 @@ impl Mask {
             let f = block_first.entry(block_of(c)).or_insert(f32::INFINITY);
             *f = f.min(c.in_first);
         }
+        // Sort key per cell: (its block's lowest crossing, its block, its own lowest crossing).
+        let key: Vec<(f32, [i32; 2], f32)> = cells
+            .iter()
+            .map(|c| (block_first.get(&block_of(c)).copied().unwrap_or(0.0), block_of(c), c.in_first))
+            .collect();
         let mut cell_order: Vec<u32> = (1..cells.len() as u32).collect();
         cell_order.sort_by(|&a, &b| {
-            let (ca, cb) = (&cells[a as usize], &cells[b as usize]);
-            let (ka, kb) = (block_of(ca), block_of(cb));
-            block_first[&ka]
-                .total_cmp(&block_first[&kb])
-                .then(ka.cmp(&kb))
-                .then(ca.in_first.total_cmp(&cb.in_first))
-                .then(a.cmp(&b))
+            let (ka, kb) = (&key[a as usize], &key[b as usize]);
+            ka.0.total_cmp(&kb.0).then(ka.1.cmp(&kb.1)).then(ka.2.total_cmp(&kb.2)).then(a.cmp(&b))
         });
         cell_order.insert(0, 0);
         let mut new_edge = vec![0u32; edges.len()];

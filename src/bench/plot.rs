@@ -187,7 +187,7 @@ fn chart<DB: DrawingBackend>(
 fn tick_label(v: f64) -> String {
     let s = format!("{v:.6}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s.is_empty() || s == "-" { "0".to_string() } else { s.to_string() }
+    if s == "-0" { "0".to_string() } else { s.to_string() }
 }
 
 #[cfg(test)]
@@ -200,6 +200,7 @@ mod tests {
         assert_eq!(tick_label(10.0), "10");
         assert_eq!(tick_label(0.001), "0.001");
         assert_eq!(tick_label(2.5e-7), "0");
+        assert_eq!(tick_label(-2.5e-7), "0");
     }
 
     #[test]
