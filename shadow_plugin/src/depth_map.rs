@@ -183,7 +183,9 @@ pub const RECEIVER_TRIM: f64 = 0.001;
 /// The range of `(coordinate, weight)` pairs that leaves out `RECEIVER_TRIM` of the total
 /// weight at each end.
 fn trimmed_range(values: &mut [(f32, f32)]) -> (f32, f32) {
-    values.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    // A total order on both members: the order, and so the sums below, are the same bits
+    // whatever the parallel sort's split (thread count).
+    values.par_sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
     let total: f64 = values.iter().map(|v| v.1 as f64).sum();
     let cut = total * RECEIVER_TRIM;
     let position = |iter: &mut dyn Iterator<Item = &(f32, f32)>| {
@@ -330,18 +332,22 @@ impl DepthMap {
         // surfaces reaching up to the light's plane (a wall beside a ceiling light) would
         // otherwise stretch the map over a huge field of view for points that the light
         // only grazes; those fall back to traced rays.
-        let mut xs = Vec::with_capacity(visible.len());
-        let mut ys = Vec::with_capacity(visible.len());
-        let mut z_recv_min = f32::INFINITY;
-        for v in visible {
-            let p = frame.light_from_world(v.p);
-            let e = light.irradiance_factor(v.p, v.n_shading);
-            if p.z > eps && e > 0.0 && !grazing(&frame, params.grazing_cos, v.p, v.n_geom) {
-                xs.push((p.x / p.z, e));
-                ys.push((p.y / p.z, e));
-                z_recv_min = z_recv_min.min(p.z);
-            }
-        }
+        // In parallel, with the sorts in `trimmed_range`: on the default scene at 640x480 (307k
+        // points) the serial fit took 67 of prepare's 160 ms.
+        let receivers: Vec<(Vec3, f32)> = visible
+            .par_iter()
+            .filter_map(|v| {
+                let p = frame.light_from_world(v.p);
+                if p.z <= eps || grazing(&frame, params.grazing_cos, v.p, v.n_geom) {
+                    return None;
+                }
+                let e = light.irradiance_factor(v.p, v.n_shading);
+                (e > 0.0).then_some((p, e))
+            })
+            .collect();
+        let mut xs: Vec<(f32, f32)> = receivers.iter().map(|(p, e)| (p.x / p.z, *e)).collect();
+        let mut ys: Vec<(f32, f32)> = receivers.iter().map(|(p, e)| (p.y / p.z, *e)).collect();
+        let mut z_recv_min = receivers.iter().map(|(p, _)| p.z).fold(f32::INFINITY, f32::min);
         let (mut lo, mut hi) = if xs.is_empty() {
             z_recv_min = 1.0;
             (Vec2::splat(-1.0), Vec2::splat(1.0))

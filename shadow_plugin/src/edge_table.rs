@@ -763,23 +763,25 @@ impl LightShadowing for EdgeTable {
         // Grazed receivers are traced and take no part.
         let mut log_depths: Vec<f32> = ctx
             .visible
-            .iter()
+            .par_iter()
             .filter(|v| !map.grazing(v.p, v.n_geom))
             .map(|v| map.frame.light_from_world(v.p).z)
             .filter(|&z| z > map.z_min && z.is_finite())
             .map(f32::ln)
             .collect();
-        log_depths.sort_unstable_by(f32::total_cmp);
         let fallback_z = map.z_min.max(1e-6) * 2.0;
-        let z_hi = log_depths.last().map_or(fallback_z, |l| l.exp());
+        let z_hi = log_depths.iter().copied().reduce(f32::max).map_or(fallback_z, f32::exp);
         let [gx, gy, gz] = self.params.grid;
+        // Quantiles by selection, not a sort (a few ms at 300k points; the value at a rank is
+        // the same whichever way it is found).
         let levels: Vec<f32> = (0..gz)
             .map(|k| {
                 if log_depths.is_empty() {
                     return fallback_z;
                 }
                 let q = ((k as f32 + 0.5) / gz as f32 * log_depths.len() as f32) as usize;
-                log_depths[q.min(log_depths.len() - 1)].exp()
+                let q = q.min(log_depths.len() - 1);
+                log_depths.select_nth_unstable_by(q, f32::total_cmp).1.exp()
             })
             .collect();
         // Each mask marches far enough for the deepest point it serves.
@@ -805,8 +807,8 @@ impl LightShadowing for EdgeTable {
         let h_cap = if needed.is_empty() {
             0.0
         } else {
-            needed.sort_unstable_by(f32::total_cmp);
-            needed[((needed.len() - 1) as f64 * MASK_HEIGHT_QUANTILE) as usize]
+            let q = ((needed.len() - 1) as f64 * MASK_HEIGHT_QUANTILE) as usize;
+            *needed.select_nth_unstable_by(q, f32::total_cmp).1
         };
         let n = self.samples as usize;
         let half = map.frame.half_size;
