@@ -40,7 +40,6 @@
 //! block RMSE 0.016; grazing wall (the map alone) RMSE 0.022, no wall pixel off.
 
 use penumbra::config::MethodName;
-use penumbra::{RenderArgs, run_render};
 use std::path::{Path, PathBuf};
 
 #[path = "common/quads.rs"]
@@ -192,29 +191,7 @@ impl Vis {
 /// Renders `scene` with `method` and reads back its visibility AOV, checking every pixel is
 /// -1 (a miss) or in [0, 1] (which NaN is not).
 fn render(dir: &Path, tag: &str, scene: &Scene, method: MethodName) -> Vis {
-    let scene_path = dir.join(format!("{tag}.toml"));
-    std::fs::write(&scene_path, scene.toml()).unwrap();
-    let out = dir.join(format!("{tag}-{}.png", method.as_str()));
-    let args = RenderArgs {
-        scene: Some(scene_path),
-        shadows: Some(method),
-        samples: Some(SAMPLES),
-        width: Some(SIZE),
-        height: Some(SIZE),
-        spp: Some(1),
-        out: Some(out.clone()),
-        aov: true,
-        quiet: true,
-        ..Default::default()
-    };
-    run_render(&args).unwrap_or_else(|e| panic!("{tag} ({}): {e}", method.as_str()));
-    let img = image::open(out.with_extension("visibility.0.exr")).unwrap().into_rgb32f();
-    assert_eq!((img.width(), img.height()), (SIZE, SIZE));
-    let v: Vec<f32> = img.pixels().map(|p| p.0[0]).collect();
-    for (i, &x) in v.iter().enumerate() {
-        assert!(x == -1.0 || (0.0..=1.0).contains(&x), "{tag} ({}): pixel {i} has V = {x}", method.as_str());
-    }
-    Vis(v)
+    Vis(render_visibility(dir, tag, &scene.toml(), method, SAMPLES, 0, SIZE))
 }
 
 /// A scene's renders: `none` (1 where the light reaches the pixel's point, 0 where it does
@@ -443,7 +420,8 @@ fn floor_lit_at_a_grazing_angle() {
         }
     }
     let report: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(dir.join("grazing_floor_policy-edge_table.json")).unwrap(),
+        &std::fs::read_to_string(dir.join(format!("grazing_floor_policy-edge_table-{SAMPLES}-0.json")))
+            .unwrap(),
     )
     .unwrap();
     let counted = report["counters"]["fallbacks_grazing"].as_u64().unwrap();

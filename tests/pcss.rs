@@ -14,7 +14,6 @@
 //! it. `cargo test --release --test pcss -- --nocapture` prints the metrics.
 
 use penumbra::config::MethodName;
-use penumbra::{RenderArgs, run_render};
 use std::path::{Path, PathBuf};
 
 #[path = "common/quads.rs"]
@@ -58,33 +57,9 @@ fn temp_dir(name: &str) -> PathBuf {
     dir
 }
 
-/// Renders `scene` (a scene file's text) with `method` and reads back its visibility AOV,
-/// checking every pixel is -1 (a miss) or in [0, 1] (which NaN is not).
+/// Renders `scene` (a scene file's text) with `method`: its visibility AOV, checked.
 fn render(dir: &Path, tag: &str, scene: &str, method: MethodName, samples: u32, seed: u64) -> Vec<f32> {
-    let scene_path = dir.join(format!("{tag}.toml"));
-    std::fs::write(&scene_path, scene).unwrap();
-    let out = dir.join(format!("{tag}-{}-{samples}-{seed}.png", method.as_str()));
-    let args = RenderArgs {
-        scene: Some(scene_path),
-        shadows: Some(method),
-        samples: Some(samples),
-        seed,
-        width: Some(SIZE),
-        height: Some(SIZE),
-        spp: Some(1),
-        out: Some(out.clone()),
-        aov: true,
-        quiet: true,
-        ..Default::default()
-    };
-    run_render(&args).unwrap_or_else(|e| panic!("{tag} ({}): {e}", method.as_str()));
-    let img = image::open(out.with_extension("visibility.0.exr")).unwrap().into_rgb32f();
-    assert_eq!((img.width(), img.height()), (SIZE, SIZE));
-    let v: Vec<f32> = img.pixels().map(|p| p.0[0]).collect();
-    for (i, &x) in v.iter().enumerate() {
-        assert!(x == -1.0 || (0.0..=1.0).contains(&x), "{tag} ({}): pixel {i} has V = {x}", method.as_str());
-    }
-    v
+    render_visibility(dir, tag, scene, method, samples, seed, SIZE)
 }
 
 /// Error of `test` against `truth` over the pixels the light reaches (`reach` = 1: the

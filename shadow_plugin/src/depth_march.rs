@@ -11,11 +11,12 @@
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
 use crate::edge_table::Heightfield;
+use crate::fallback::MapFallback;
 use crate::march::{ray_blocked, stop_height};
 use crate::samples;
 use glam::Vec2;
 use renderer::sampling::Rng;
-use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery, Traced, TracedParams};
+use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Visible-sample bits of the rays from map point `mp` to `samples`: bit r is 1 iff ray r
@@ -52,9 +53,7 @@ pub struct DepthMarch {
     heightfield: Heightfield,
     samples: u32,
     map: Option<DepthMap>,
-    fallback: Traced,
-    fallbacks: AtomicU64,
-    grazing: AtomicU64,
+    fallback: MapFallback,
     early_outs: AtomicU64,
     clipped: AtomicU64,
 }
@@ -69,9 +68,7 @@ impl DepthMarch {
             heightfield,
             samples,
             map: None,
-            fallback: Traced::new(TracedParams { samples }),
-            fallbacks: AtomicU64::new(0),
-            grazing: AtomicU64::new(0),
+            fallback: MapFallback::new(samples),
             early_outs: AtomicU64::new(0),
             clipped: AtomicU64::new(0),
         }
@@ -91,15 +88,10 @@ impl LightShadowing for DepthMarch {
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         let map = self.map.as_ref().expect("prepare() runs before visibility()");
         let frame = &map.frame;
-        if map.grazing(q.p, q.n_geom) {
-            self.grazing.fetch_add(1, Ordering::Relaxed);
-            self.fallbacks.fetch_add(1, Ordering::Relaxed);
-            return self.fallback.visibility(scene, q);
-        }
-        // Outside the map there is no data: traced rays answer (counted).
-        let Some((p, mp)) = map.query_point(q.p, q.n_geom) else {
-            self.fallbacks.fetch_add(1, Ordering::Relaxed);
-            return self.fallback.visibility(scene, q);
+        // Grazed points and points outside the map: traced rays answer (counted).
+        let (p, mp) = match self.fallback.lookup(map, scene, q) {
+            Ok(found) => found,
+            Err(traced) => return traced,
         };
         if p.z <= map.z_min {
             self.early_outs.fetch_add(1, Ordering::Relaxed);
@@ -127,22 +119,11 @@ impl LightShadowing for DepthMarch {
 
     fn counters(&self) -> Vec<(&'static str, u64)> {
         let mut c = vec![
-            ("fallbacks", self.fallbacks.load(Ordering::Relaxed)),
-            ("fallbacks_grazing", self.grazing.load(Ordering::Relaxed)),
             ("early_outs", self.early_outs.load(Ordering::Relaxed)),
             ("regions_clipped", self.clipped.load(Ordering::Relaxed)),
             ("depth_map_bytes", self.map.as_ref().map_or(0, |m| m.bytes())),
         ];
-        c.extend(self.fallback.counters().into_iter().map(|(k, v)| (fallback_name(k), v)));
+        c.extend(self.fallback.counters());
         c
-    }
-}
-
-/// Counter names of the traced fallback, prefixed so they do not mix with a traced run's.
-pub fn fallback_name(k: &'static str) -> &'static str {
-    match k {
-        "shadow_rays" => "fallback_shadow_rays",
-        "shadow_rays_occluded" => "fallback_shadow_rays_occluded",
-        other => other,
     }
 }

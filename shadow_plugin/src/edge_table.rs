@@ -45,13 +45,13 @@
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams};
-use crate::depth_march::fallback_name;
+use crate::fallback::MapFallback;
 use crate::march::{floor_height, for_each_crossing, stop_height};
 use crate::samples;
 use glam::Vec2;
 use rayon::prelude::*;
 use renderer::sampling::{Rng, stream_seed};
-use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery, Traced, TracedParams};
+use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// How visibilities of neighbouring masks combine.
@@ -616,12 +616,10 @@ pub struct EdgeTable {
     params: EdgeTableParams,
     samples: u32,
     state: Option<Prepared>,
-    fallback: Traced,
+    fallback: MapFallback,
     lookups: AtomicU64,
     early_outs: AtomicU64,
     blocks_culled: AtomicU64,
-    fallbacks: AtomicU64,
-    grazing: AtomicU64,
     clipped: AtomicU64,
 }
 
@@ -646,12 +644,10 @@ impl EdgeTable {
             params,
             samples,
             state: None,
-            fallback: Traced::new(TracedParams { samples }),
+            fallback: MapFallback::new(samples),
             lookups: AtomicU64::new(0),
             early_outs: AtomicU64::new(0),
             blocks_culled: AtomicU64::new(0),
-            fallbacks: AtomicU64::new(0),
-            grazing: AtomicU64::new(0),
             clipped: AtomicU64::new(0),
         }
     }
@@ -864,16 +860,11 @@ impl LightShadowing for EdgeTable {
         let st = self.state.as_ref().expect("prepare() runs before visibility()");
         let map = &st.map;
         let frame = &map.frame;
-        let fallback = || {
-            self.fallbacks.fetch_add(1, Ordering::Relaxed);
-            self.fallback.visibility(scene, q)
+        // Grazed points and points outside the map: traced rays answer (counted).
+        let (p, mp) = match self.fallback.lookup(map, scene, q) {
+            Ok(found) => found,
+            Err(traced) => return traced,
         };
-        if map.grazing(q.p, q.n_geom) {
-            self.grazing.fetch_add(1, Ordering::Relaxed);
-            return fallback();
-        }
-        // Outside the map there is no data: traced rays answer (counted).
-        let Some((p, mp)) = map.query_point(q.p, q.n_geom) else { return fallback() };
         if p.z <= map.z_min {
             self.early_outs.fetch_add(1, Ordering::Relaxed);
             return 1.0;
@@ -894,7 +885,7 @@ impl LightShadowing for EdgeTable {
         for &(m, shift, w) in &chosen[..count] {
             let mask = &st.masks[m];
             if h_stop > mask.h_max {
-                return fallback();
+                return self.fallback.trace(scene, q);
             }
             let words = bits::words(mask.samples.len());
             let stats = mask.query(
@@ -943,11 +934,9 @@ impl LightShadowing for EdgeTable {
             ("edge_lookups", self.lookups.load(Ordering::Relaxed)),
             ("early_outs", self.early_outs.load(Ordering::Relaxed)),
             ("blocks_culled", self.blocks_culled.load(Ordering::Relaxed)),
-            ("fallbacks", self.fallbacks.load(Ordering::Relaxed)),
-            ("fallbacks_grazing", self.grazing.load(Ordering::Relaxed)),
             ("regions_clipped", self.clipped.load(Ordering::Relaxed)),
         ];
-        c.extend(self.fallback.counters().into_iter().map(|(k, v)| (fallback_name(k), v)));
+        c.extend(self.fallback.counters());
         c
     }
 }

@@ -5,6 +5,7 @@ pub mod bits;
 pub mod depth_map;
 pub mod depth_march;
 pub mod edge_table;
+pub mod fallback;
 pub mod march;
 pub mod pcss;
 pub mod samples;

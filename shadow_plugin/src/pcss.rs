@@ -77,11 +77,11 @@
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
-use crate::depth_march::fallback_name;
+use crate::fallback::MapFallback;
 use crate::samples;
 use glam::{Vec2, Vec3};
 use renderer::sampling::Rng;
-use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery, Traced, TracedParams};
+use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Parameters of the PCSS method. See the module doc for the scene-file keys.
@@ -111,9 +111,7 @@ pub struct Pcss {
     params: PcssParams,
     samples: u32,
     map: Option<DepthMap>,
-    fallback: Traced,
-    fallbacks: AtomicU64,
-    grazing: AtomicU64,
+    fallback: MapFallback,
     early_outs: AtomicU64,
     blocker_searches: AtomicU64,
     pcf_taps: AtomicU64,
@@ -130,9 +128,7 @@ impl Pcss {
             params,
             samples,
             map: None,
-            fallback: Traced::new(TracedParams { samples }),
-            fallbacks: AtomicU64::new(0),
-            grazing: AtomicU64::new(0),
+            fallback: MapFallback::new(samples),
             early_outs: AtomicU64::new(0),
             blocker_searches: AtomicU64::new(0),
             pcf_taps: AtomicU64::new(0),
@@ -209,15 +205,11 @@ impl LightShadowing for Pcss {
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         let map = self.map.as_ref().expect("prepare() runs before visibility()");
         let frame = &map.frame;
-        if map.grazing(q.p, q.n_geom) {
-            self.grazing.fetch_add(1, Ordering::Relaxed);
-            self.fallbacks.fetch_add(1, Ordering::Relaxed);
-            return self.fallback.visibility(scene, q);
-        }
-        // Outside the map there is no data: traced rays answer (counted).
-        let Some((p, mp)) = map.query_point(q.p, q.n_geom) else {
-            self.fallbacks.fetch_add(1, Ordering::Relaxed);
-            return self.fallback.visibility(scene, q);
+        // Grazed points (when `grazing_cos` is set) and points outside the map: traced rays
+        // answer (counted).
+        let (p, mp) = match self.fallback.lookup(map, scene, q) {
+            Ok(found) => found,
+            Err(traced) => return traced,
         };
         if p.z <= map.z_min {
             return self.early_out(); // nearer the light than any surface in the map
@@ -277,14 +269,12 @@ impl LightShadowing for Pcss {
 
     fn counters(&self) -> Vec<(&'static str, u64)> {
         let mut c = vec![
-            ("fallbacks", self.fallbacks.load(Ordering::Relaxed)),
-            ("fallbacks_grazing", self.grazing.load(Ordering::Relaxed)),
             ("early_outs", self.early_outs.load(Ordering::Relaxed)),
             ("blocker_searches", self.blocker_searches.load(Ordering::Relaxed)),
             ("pcf_taps", self.pcf_taps.load(Ordering::Relaxed)),
             ("depth_map_bytes", self.map.as_ref().map_or(0, |m| m.bytes())),
         ];
-        c.extend(self.fallback.counters().into_iter().map(|(k, v)| (fallback_name(k), v)));
+        c.extend(self.fallback.counters());
         c
     }
 }

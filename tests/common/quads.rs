@@ -67,3 +67,41 @@ pub fn light_toward(center: V3, target: V3, size: f64) -> Quad {
     let v = cross(n, u); // so that cross(u, v) = n
     Quad { center, u: mul(u, size), v: mul(v, size) }
 }
+
+/// Renders the scene file text `scene` (size x size pixels, 1 spp, pixel centres) with
+/// `method` through `penumbra::run_render` into `dir`, and reads back its visibility AOV,
+/// checking every pixel is -1 (a miss) or in [0, 1] (which NaN is not).
+pub fn render_visibility(
+    dir: &std::path::Path,
+    tag: &str,
+    scene: &str,
+    method: penumbra::config::MethodName,
+    samples: u32,
+    seed: u64,
+    size: u32,
+) -> Vec<f32> {
+    let scene_path = dir.join(format!("{tag}.toml"));
+    std::fs::write(&scene_path, scene).unwrap();
+    let out = dir.join(format!("{tag}-{}-{samples}-{seed}.png", method.as_str()));
+    let args = penumbra::RenderArgs {
+        scene: Some(scene_path),
+        shadows: Some(method),
+        samples: Some(samples),
+        seed,
+        width: Some(size),
+        height: Some(size),
+        spp: Some(1),
+        out: Some(out.clone()),
+        aov: true,
+        quiet: true,
+        ..Default::default()
+    };
+    penumbra::run_render(&args).unwrap_or_else(|e| panic!("{tag} ({}): {e}", method.as_str()));
+    let img = image::open(out.with_extension("visibility.0.exr")).unwrap().into_rgb32f();
+    assert_eq!((img.width(), img.height()), (size, size));
+    let v: Vec<f32> = img.pixels().map(|p| p.0[0]).collect();
+    for (i, &x) in v.iter().enumerate() {
+        assert!(x == -1.0 || (0.0..=1.0).contains(&x), "{tag} ({}): pixel {i} has V = {x}", method.as_str());
+    }
+    v
+}
