@@ -147,7 +147,7 @@ fn main() {
         let none = run(&scene, &|| Box::new(Unshadowed), &settings);
         let base = none.render;
         let lit = &none.visibility[0];
-        let truth = run(&scene, &|| Box::new(Traced::new(TracedParams { samples })), &settings);
+        let truth = run(&scene, &|| Box::new(Traced::new(TracedParams::plain(samples))), &settings);
         let cost = |f: &renderer::Frame| f.shadow_prepare + f.render.saturating_sub(base);
         let mut rows = vec![Row {
             name: format!("traced {samples}"),

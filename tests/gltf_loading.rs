@@ -476,7 +476,7 @@ fn write_card(dir: &TempDir, stem: &str, alpha_mode: &str, h: f32) {
 /// Traced visibility (64 samples) of the scene's first light at floor points (world, y = 0,
 /// normal +Y).
 fn floor_visibility(scene: &Scene, points: &[DVec3]) -> Vec<f32> {
-    let mut traced = Traced::new(TracedParams { samples: 64 });
+    let mut traced = Traced::new(TracedParams::plain(64));
     traced
         .prepare(&PrepareContext { scene, light: &scene.lights[0], light_index: 0, visible: &[], seed: 0 })
         .expect("prepare");

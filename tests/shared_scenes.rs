@@ -62,3 +62,40 @@ scene_tests! {
     sheen_chair_floor => "sheen-chair-floor.toml",
     toy_car => "toy-car.toml",
 }
+
+/// Shaft culling (`[shadows.traced] shaft_culling`, on by default) is exact: on every shared
+/// scene, culled and plain traced give the same visibility bits at every pixel, and culling
+/// skips rays (96x72, 256 samples: enough for the whole light and its quadrants to be
+/// tested).
+#[test]
+fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
+    use renderer::{LightShadowing, RenderSettings, Scene, SceneFile, Traced, TracedParams, render};
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/gltf");
+    let mut names: Vec<PathBuf> = std::fs::read_dir(&root)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 10, "{names:?}");
+    let settings = RenderSettings { width: 96, height: 72, spp: 1, seed: 3 };
+    for path in names {
+        let file = SceneFile::load(&path).unwrap();
+        let scene = Scene::load(&file, &path).unwrap();
+        let run = |shaft_culling: bool| {
+            let mut methods: Vec<Box<dyn LightShadowing>> = scene
+                .lights
+                .iter()
+                .map(|_| Box::new(Traced::new(TracedParams { samples: 256, shaft_culling })) as _)
+                .collect();
+            render(&scene, &mut methods, &settings, &|_| {}).unwrap()
+        };
+        let (plain, culled) = (run(false), run(true));
+        for (k, (a, b)) in plain.visibility.iter().zip(&culled.visibility).enumerate() {
+            let differ = a.iter().zip(b).filter(|(x, y)| x.to_bits() != y.to_bits()).count();
+            assert_eq!(differ, 0, "{}: light {k}: {differ} pixels differ", path.display());
+        }
+        let (rp, rc) = (plain.counters["shadow_rays"], culled.counters["shadow_rays"]);
+        assert!(rc < rp, "{}: culled {rc} rays, plain {rp}", path.display());
+    }
+}

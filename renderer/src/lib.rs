@@ -16,6 +16,7 @@ pub mod render;
 pub mod sampling;
 pub mod scene;
 pub mod shadowing;
+pub mod shaft;
 
 pub use camera::Camera;
 pub use config::SceneFile;
@@ -26,3 +27,4 @@ pub use scene::{RayEpsilon, Scene, SurfaceHit};
 pub use shadowing::{
     LightShadowing, PrepareContext, ShadowError, ShadowQuery, Traced, TracedParams, Unshadowed, VisiblePoint,
 };
+pub use shaft::Shaft;

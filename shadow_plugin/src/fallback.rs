@@ -18,7 +18,7 @@ pub struct MapFallback {
 impl MapFallback {
     pub fn new(samples: u32) -> Self {
         Self {
-            traced: Traced::new(TracedParams { samples }),
+            traced: Traced::new(TracedParams { samples, shaft_culling: true }),
             fallbacks: AtomicU64::new(0),
             grazing: AtomicU64::new(0),
         }

@@ -163,7 +163,7 @@ pub fn truth(
 
     let truth_settings = RenderSettings { seed: settings.seed ^ TRUTH_SEED_SALT, ..*settings };
     let mut methods: Vec<Box<dyn renderer::LightShadowing>> =
-        (0..lights).map(|_| Box::new(Traced::new(TracedParams { samples })) as _).collect();
+        (0..lights).map(|_| Box::new(Traced::new(TracedParams::plain(samples))) as _).collect();
     let frame: Frame = render(scene, &mut methods, &truth_settings, &|_| {})
         .map_err(|e| SceneError::new(scene_path, "bench", e.to_string()))?;
     let seconds = (frame.shadow_prepare + frame.render).as_secs_f64();
