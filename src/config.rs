@@ -127,6 +127,8 @@ pub struct EdgeTableConfig {
     /// Receivers whose normal's cosine to the direction of the light's centre is below this
     /// are traced.
     pub grazing_cos: Option<f32>,
+    /// Fit the map to the receivers something may shadow (shaft test), not to all lit ones.
+    pub fit_shadowed: Option<bool>,
 }
 
 /// `[shadows.traced]`.
@@ -157,6 +159,7 @@ pub struct DepthMapConfig {
     pub closed_volumes: Option<bool>,
     pub hidden_layer: Option<bool>,
     pub grazing_cos: Option<f32>,
+    pub fit_shadowed: Option<bool>,
 }
 
 /// `[shadows.pcss]`: any of `shadow_plugin::PcssParams`' defaults overridden.
@@ -243,6 +246,9 @@ impl EdgeTableConfig {
         if let Some(c) = self.grazing_cos {
             p.depth_map.grazing_cos = c;
         }
+        if let Some(f) = self.fit_shadowed {
+            p.depth_map.fit_shadowed = f;
+        }
         p
     }
 }
@@ -262,6 +268,7 @@ impl DepthMapConfig {
             closed_volumes: self.closed_volumes.unwrap_or(d.closed_volumes),
             hidden_layer: self.hidden_layer.unwrap_or(d.hidden_layer),
             grazing_cos: self.grazing_cos.unwrap_or(d.grazing_cos),
+            fit_shadowed: self.fit_shadowed.unwrap_or(d.fit_shadowed),
         }
     }
 }

@@ -103,7 +103,20 @@ fn check_outputs(out: &Path, scenes: &[&str]) -> serde_json::Value {
     let json: serde_json::Value = serde_json::from_str(&read(&out.join("results.json"))).unwrap();
     assert_eq!(json["rows"].as_array().unwrap().len(), rows.len());
     for s in json["scenes"].as_array().unwrap() {
-        assert!(s["equal_error_speedup"]["ratio"].as_f64().unwrap() > 0.0, "{s}");
+        match s["equal_error_speedup"]["ratio"].as_f64() {
+            Some(r) => assert!(r > 0.0, "{s}"),
+            // No ratio only where edge_table's cost was lost in the timing noise of these
+            // tiny frames (its render no slower than `none`'s): not a missing computation.
+            None => {
+                let row = json["rows"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .find(|r| r["scene"] == s["scene"] && r["edge_table_default"] == true)
+                    .unwrap_or_else(|| panic!("no edge_table default row: {s}"));
+                assert!(row["shadow_cost_s"].as_f64().unwrap() <= 0.0, "{s} {row}");
+            }
+        }
     }
 
     // HTML: every linked file exists; images and plots decode; SVGs are SVG.

@@ -165,6 +165,16 @@ impl LightShadowing for Traced {
         } else {
             0
         };
+        // The whole light proven clear and wholly above the geometric horizon (with a margin
+        // of an epsilon over `Shaft::covers`, for the samples' rounding): every counted
+        // sample is unblocked, so the answer is 1 without drawing them. Measured: drawing
+        // 1024 samples per such point cost ~10 us, most of a clear point's time.
+        if clear != 0
+            && clear == shaft::all_leaves((nx, ny))
+            && light.corners().iter().all(|&c| q.n_geom.dot(c - q.p) >= 2.0 * eps)
+        {
+            return 1.0;
+        }
         let mut rng = Rng::new(q.seed);
         let (mut above, mut unblocked, mut traced) = (0u32, 0u32, 0u32);
         for j in 0..ny {

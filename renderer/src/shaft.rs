@@ -300,6 +300,13 @@ pub fn clear_leaves(
     (mask, tests)
 }
 
+/// Every leaf bit of an `nx` x `ny` strata grid: [`clear_leaves`]'s mask when the whole light
+/// is clear.
+pub fn all_leaves(strata: (u32, u32)) -> u64 {
+    let (lx, ly) = (LEAVES.min(strata.0 as usize), LEAVES.min(strata.1 as usize));
+    (0..ly).flat_map(|y| (0..lx).map(move |x| 1u64 << (x + LEAVES * y))).fold(0, |m, b| m | b)
+}
+
 /// The leaf of light sample (i, j) of an `nx` x `ny` strata grid, as a bit of
 /// [`clear_leaves`]'s mask.
 #[inline]

@@ -756,11 +756,11 @@ impl LightShadowing for EdgeTable {
         // ray footprints of a point at depth z read through a mask built at z0 are off by
         // z0 / z. Measured against levels at the centres of equal log-depth bins and at the
         // range's ends: see ARCHITECTURE.md.
-        // Grazed receivers are traced and take no part.
+        // Grazed receivers and those outside the map are traced and take no part.
         let mut log_depths: Vec<f32> = ctx
             .visible
             .par_iter()
-            .filter(|v| !map.grazing(v.p, v.n_geom))
+            .filter(|v| !map.grazing(v.p, v.n_geom) && map.query_point(v.p, v.n_geom).is_some())
             .map(|v| map.frame.light_from_world(v.p).z)
             .filter(|&z| z > map.z_min && z.is_finite())
             .map(f32::ln)
@@ -795,6 +795,9 @@ impl LightShadowing for EdgeTable {
             .par_iter()
             .filter(|v| !map.grazing(v.p, v.n_geom))
             .filter_map(|v| {
+                // Points off the map are traced and need no height (with `fit_shadowed` they
+                // are most of a wide floor).
+                map.query_point(v.p, v.n_geom)?;
                 let p = map.frame.light_from_world(v.p);
                 let mp = map.locate(p)?;
                 Some(stop_height(map.stop_depth(mp.pixel, p.z).0, p.z))

@@ -96,7 +96,7 @@ impl Default for PcssParams {
     fn default() -> Self {
         // No grazing fallback: the real-time baseline traces only what falls off its map.
         Self {
-            depth_map: DepthMapParams { grazing_cos: 0.0, ..DepthMapParams::new(256) },
+            depth_map: DepthMapParams { grazing_cos: 0.0, fit_shadowed: false, ..DepthMapParams::new(256) },
             blocker_samples: 32,
         }
     }

@@ -108,6 +108,10 @@ fn setting(label: String, config: ShadowsConfig) -> Setting {
     Setting { label, config, is_edge_table_default: false }
 }
 
+/// Label prefix of the plain traced reference: reported, but not a candidate of the
+/// equal-error speedup (that compares with `traced` as it ships, shaft-culled).
+pub const PLAIN_TRACED: &str = "traced plain";
+
 /// The settings swept, in order.
 pub fn sweep(quick: bool) -> Vec<Setting> {
     let base = ShadowsConfig::default();
@@ -120,6 +124,11 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
         ));
     }
     let n = if quick { 64 } else { 1024 };
+    // The plain reference at the top count: every ray traced, no shaft culling (the same
+    // bits as `traced N=1024`, so the cost of culling's absence is read off side by side).
+    let mut plain = ShadowsConfig { method: MethodName::Traced, samples: n, ..base.clone() };
+    plain.traced.shaft_culling = Some(false);
+    out.push(setting(format!("{PLAIN_TRACED} N={n}"), plain));
     out.push(setting(
         format!("depth_march 256 N={n}"),
         ShadowsConfig { method: MethodName::DepthMarch, samples: n, ..base.clone() },
@@ -374,7 +383,12 @@ fn equal_error_speedup(rows: &[Row]) -> Option<Speedup> {
     let et = rows.iter().find(|r| r.edge_table_default)?;
     let mut traced: Vec<&Row> = rows
         .iter()
-        .filter(|r| r.method == "traced" && r.errors.rmse.is_finite() && r.shadow_cost_s > 0.0)
+        .filter(|r| {
+            r.method == "traced"
+                && !r.setting.starts_with(PLAIN_TRACED)
+                && r.errors.rmse.is_finite()
+                && r.shadow_cost_s > 0.0
+        })
         .collect();
     // No lit pixel (NaN errors) or a cost lost in the noise: no meaningful ratio.
     if !et.errors.rmse.is_finite() || et.shadow_cost_s <= 0.0 || traced.is_empty() {
@@ -933,12 +947,13 @@ mod tests {
             }
             assert_eq!(s.iter().filter(|x| x.is_edge_table_default).count(), 1, "quick {quick}");
         }
-        let full: Vec<u32> = sweep(false)
+        let full: Vec<(u32, bool)> = sweep(false)
             .iter()
             .filter(|x| x.config.method == MethodName::Traced)
-            .map(|x| x.config.samples)
+            .map(|x| (x.config.samples, x.config.traced.params(x.config.samples).shaft_culling))
             .collect();
-        assert_eq!(full, vec![4, 16, 64, 256, 1024]);
+        // Shaft-culled at every count, and the plain reference at the top one.
+        assert_eq!(full, vec![(4, true), (16, true), (64, true), (256, true), (1024, true), (1024, false)]);
     }
 
     #[test]
