@@ -65,8 +65,8 @@ scene_tests! {
 
 /// Shaft culling (`[shadows.traced] shaft_culling`, on by default) is exact: on every shared
 /// scene, culled and plain traced give the same visibility bits at every pixel, and culling
-/// skips rays (96x72, 256 samples: enough for the whole light and its quadrants to be
-/// tested).
+/// skips rays (64x48, 1024 samples: every level of the light's split is tested, down to
+/// its 4x4 parts of 64 samples).
 #[test]
 fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
     use renderer::{LightShadowing, RenderSettings, Scene, SceneFile, Traced, TracedParams, render};
@@ -78,7 +78,7 @@ fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
         .collect();
     names.sort();
     assert!(names.len() >= 10, "{names:?}");
-    let settings = RenderSettings { width: 96, height: 72, spp: 1, seed: 3 };
+    let settings = RenderSettings { width: 64, height: 48, spp: 1, seed: 3 };
     for path in names {
         let file = SceneFile::load(&path).unwrap();
         let scene = Scene::load(&file, &path).unwrap();
@@ -86,7 +86,7 @@ fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
             let mut methods: Vec<Box<dyn LightShadowing>> = scene
                 .lights
                 .iter()
-                .map(|_| Box::new(Traced::new(TracedParams { samples: 256, shaft_culling })) as _)
+                .map(|_| Box::new(Traced::new(TracedParams { samples: 1024, shaft_culling })) as _)
                 .collect();
             render(&scene, &mut methods, &settings, &|_| {}).unwrap()
         };

@@ -86,7 +86,9 @@ impl Shaft {
         }
         let apex = p + eps * n_geom;
         let height = light.normal.dot(apex - light.center);
-        if !is_positive(height) || !is_positive(light.area()) {
+        // An apex (nearly) in the light's plane: the side faces' orientation test below would
+        // sit at rounding level. Such points trace every ray.
+        if !is_positive(height - 4.0 * eps) || !is_positive(light.area()) {
             return None;
         }
         // Numerical slack of the side faces: one epsilon outwards, well above f32 rounding of
@@ -97,7 +99,12 @@ impl Shaft {
         let inner = Vec3A::from(0.2 * apex + 0.8 * centre);
         for i in 0..4 {
             let (a, b) = (Vec3A::from(corners[i]), Vec3A::from(corners[(i + 1) % 4]));
-            let mut n = (a - Vec3A::from(apex)).cross(b - Vec3A::from(apex));
+            // The light edge crossed with the long edge to the apex: two well-separated
+            // directions. (The two long edges apex -> a and apex -> b are nearly parallel for a
+            // small, far part of the light, and their cross product lost enough precision to
+            // put the apex 24 epsilons outside its own face: found by review, a regression
+            // test below.)
+            let mut n = (b - a).cross(Vec3A::from(apex) - a);
             let len = n.length();
             if !is_positive(len) || !len.is_finite() {
                 return None;
@@ -110,15 +117,20 @@ impl Shaft {
         }
         // The light's plane: rays stop `eps` short of their sample, so they end at least
         // eps * cos_min in front of it (cos_min: the most grazing ray's cosine to the light's
-        // normal). Half of that is the slack, so a ceiling flush with the light separates.
+        // normal), less f32 rounding of positions (~0.012 eps, see `RayEpsilon`). Where
+        // cos_min >= 1/4, geometry below eps / 8 in front of the plane (a ceiling flush with
+        // the light) is separated: a margin of ten roundings either side. Where rays arrive
+        // more grazing than that, only geometry eps / 10 behind the plane is (review found a
+        // flush ceiling "separated" from rays that hit it, at cos_min ~ 1e-3).
         let n_light = Vec3A::from(light.normal);
         let cos_min = corners
             .iter()
             .map(|&c| (apex - c).normalize_or_zero().dot(light.normal))
             .fold(f32::INFINITY, f32::min)
             .max(0.0);
+        let in_front = if cos_min >= 0.25 { 0.125 * eps } else { -0.1 * eps };
         let base_offset = -n_light.dot(Vec3A::from(light.center));
-        faces[4] = Face { normal: -n_light, offset: base_offset - 0.5 * eps * cos_min, slack: 0.0 };
+        faces[4] = Face { normal: -n_light, offset: base_offset - in_front, slack: 0.0 };
         // The cut: n_geom . (x - p) >= eps / 2. Covered rays lie at >= eps above the tangent
         // plane, so the margin is eps / 2; the receiver's own surface (and, for a convex
         // surface, its neighbours) lie at <= 0 and are outside.
@@ -157,11 +169,13 @@ impl Shaft {
         if self.faces.iter().any(|f| f.outside(v0) && f.outside(v1) && f.outside(v2)) {
             return true;
         }
-        let n = (v1 - v0).cross(v2 - v0);
+        let (e1, e2) = (v1 - v0, v2 - v0);
+        let n = e1.cross(e2);
         let len = n.length();
-        if !is_positive(len) || !len.is_finite() {
-            // Degenerate: no plane axis. Treat it as a segment or point, which the faces
-            // already failed to separate.
+        // Degenerate, or a sliver whose normal is mostly rounding (|e1 x e2| within a few
+        // hundred ulps of |e1| |e2|): no trustworthy plane axis, and the faces already failed
+        // to separate it.
+        if !is_positive(len) || !len.is_finite() || len < 256.0 * f32::EPSILON * e1.length() * e2.length() {
             return false;
         }
         let n = n / len;
@@ -447,5 +461,121 @@ mod tests {
         let (mask, tests) = clear_leaves(&s, &s.lights[0], Vec3::ZERO, Vec3::Y, (32, 32));
         assert!(mask.count_ones() >= 12 && mask.count_ones() < 16, "mask {mask:#x}");
         assert!(tests >= 5, "{tests} tests");
+    }
+
+    fn triangles_scene(tris: &[[DVec3; 3]], light: RectLight) -> Scene {
+        use crate::gltf_load::SourceTriangle;
+        use crate::material::Material;
+        let mut g = Geometry::default();
+        g.materials.push(Material::diffuse([0.5; 3]));
+        for t in tris {
+            g.triangles.push(SourceTriangle { p: *t, n: None, uv: [glam::Vec2::ZERO; 3], material: 0 });
+        }
+        let camera = Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
+        Scene::build(g, vec![light], camera, DVec3::ZERO, Duration::ZERO)
+    }
+
+    fn quad_triangles(c: DVec3, u: DVec3, v: DVec3) -> [[DVec3; 3]; 2] {
+        let k = |a: f64, b: f64| c + a * u + b * v;
+        [[k(-0.5, -0.5), k(0.5, -0.5), k(0.5, 0.5)], [k(-0.5, -0.5), k(0.5, 0.5), k(-0.5, 0.5)]]
+    }
+
+    fn plain_and_culled(s: &Scene) -> (Traced, Traced) {
+        let ctx = PrepareContext { scene: s, light: &s.lights[0], light_index: 0, visible: &[], seed: 0 };
+        let mut plain = Traced::new(TracedParams::plain(1024));
+        let mut culled = Traced::new(TracedParams { samples: 1024, shaft_culling: true });
+        plain.prepare(&ctx).unwrap();
+        culled.prepare(&ctx).unwrap();
+        (plain, culled)
+    }
+
+    /// Regression (found by review): a small light 80 units away makes each part's shaft
+    /// long and thin. Side faces computed from the two long edges lost enough precision to
+    /// prove clear a shaft that a small triangle 0.17 above the point blocks completely
+    /// (plain 0, culled 0.5).
+    #[test]
+    fn a_long_thin_shaft_is_not_proven_clear_through_a_blocker() {
+        let light = RectLight::new(
+            Vec3::new(3.0, 40.0, -2.0),
+            Vec3::new(0.1, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.1),
+            Vec3::ONE,
+        );
+        let mut tris = quad_triangles(
+            DVec3::new(0.0, -40.0, 0.0),
+            DVec3::new(60.0, 0.0, 0.0),
+            DVec3::new(0.0, 0.0, -60.0),
+        )
+        .to_vec();
+        tris.push([
+            DVec3::new(-27.38235, -39.83867, -29.864786),
+            DVec3::new(-27.382542, -39.838837, -29.864096),
+            DVec3::new(-27.381868, -39.839005, -29.864344),
+        ]);
+        let s = triangles_scene(&tris, light);
+        let (plain, culled) = plain_and_culled(&s);
+        let q = ShadowQuery {
+            p: Vec3::new(-27.44314, -40.0, -29.92025),
+            n_geom: Vec3::Y,
+            n_shading: Vec3::Y,
+            pixel: [0, 0],
+            seed: 1,
+        };
+        let (a, b) = (plain.visibility(&s, &q), culled.visibility(&s, &q));
+        assert_eq!(a, 0.0);
+        assert_eq!(a.to_bits(), b.to_bits(), "plain {a} culled {b}");
+        // The apex lies inside its side faces (with their slack) for every part of the light.
+        for (a0, b0) in [(0.0, 0.0), (0.5, 0.5), (0.25, 0.75), (0.75, 0.0)] {
+            let shaft =
+                Shaft::to_part(&light, [a0, a0 + 0.25], [b0, b0 + 0.25], q.p, q.n_geom, s.epsilon.eps)
+                    .unwrap();
+            for f in &shaft.faces[..4] {
+                assert!(!f.outside(shaft.vertices[0]), "apex outside a side face of part ({a0}, {b0})");
+            }
+        }
+    }
+
+    /// Regression (found by review): points on a wall just below the light's plane, under a
+    /// ceiling flush with the light, in a rotated frame (so the ceiling's vertices round off
+    /// the plane): their rays reach the light at a grazing angle, and the light-plane face
+    /// must not separate the ceiling they may hit.
+    #[test]
+    fn a_ceiling_flush_with_the_light_is_not_separated_from_grazing_rays() {
+        use glam::DQuat;
+        let mut differ = 0;
+        for rot in 0..6u64 {
+            let mut rng = Rng::new(100 + rot);
+            let mut angle = || rng.next_f32() as f64 * 6.0;
+            let turn = DQuat::from_euler(glam::EulerRot::XYZ, angle(), angle(), angle());
+            let to_world = |x: DVec3| turn * x + DVec3::new(0.3, -0.7, 1.1);
+            let light = RectLight::new(
+                to_world(DVec3::new(0.0, 2.0, 0.0)).as_vec3(),
+                (turn * DVec3::X).as_vec3(),
+                (turn * DVec3::Z).as_vec3(),
+                Vec3::ONE,
+            );
+            let tris: Vec<[DVec3; 3]> =
+                quad_triangles(DVec3::ZERO, DVec3::new(20.0, 0.0, 0.0), DVec3::new(0.0, 0.0, -20.0))
+                    .into_iter()
+                    .chain(quad_triangles(
+                        DVec3::new(0.0, 2.0, 0.0),
+                        DVec3::new(30.0, 0.0, 0.0),
+                        DVec3::new(0.0, 0.0, 30.0),
+                    ))
+                    .map(|t| t.map(to_world))
+                    .collect();
+            let s = triangles_scene(&tris, light);
+            let (plain, culled) = plain_and_culled(&s);
+            let mut rng = Rng::new(5 + rot);
+            let n = (turn * DVec3::NEG_X).as_vec3();
+            for k in 0..300u64 {
+                let below = 10f64.powf(-7.0 + 5.5 * rng.next_f32() as f64);
+                let p = to_world(DVec3::new(3.0, 2.0 - below, rng.next_f32() as f64 - 0.5)).as_vec3();
+                let q = ShadowQuery { p, n_geom: n, n_shading: n, pixel: [0, 0], seed: k };
+                differ +=
+                    usize::from(plain.visibility(&s, &q).to_bits() != culled.visibility(&s, &q).to_bits());
+            }
+        }
+        assert_eq!(differ, 0, "{differ} of 1800 points differ");
     }
 }
