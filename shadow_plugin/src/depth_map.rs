@@ -361,7 +361,10 @@ impl DepthMap {
                 Some((p, e, fitted))
             })
             .collect();
-        let fitted = receivers.iter().filter(|r| r.2);
+        // Nothing in view that anything may shadow: fit to every receiver, as without the
+        // option (not to a default box the points would read masks through for nothing).
+        let any_fitted = receivers.iter().any(|r| r.2);
+        let fitted = receivers.iter().filter(|r| r.2 || !any_fitted);
         let mut xs: Vec<(f32, f32)> = fitted.clone().map(|(p, e, _)| (p.x / p.z, *e)).collect();
         let mut ys: Vec<(f32, f32)> = fitted.map(|(p, e, _)| (p.y / p.z, *e)).collect();
         let mut z_recv_min = receivers.iter().map(|(p, _, _)| p.z).fold(f32::INFINITY, f32::min);
@@ -745,5 +748,31 @@ mod tests {
         let far = Vec3::new(4.0, 0.0, 4.0);
         assert!(fitted.query_point(far, Vec3::Y).is_none());
         assert!(all_lit.query_point(far, Vec3::Y).is_some());
+    }
+
+    /// With nothing that may shadow anything in view, `fit_shadowed` fits the same map as
+    /// fitting to every lit receiver.
+    #[test]
+    fn with_no_shadow_in_view_the_fit_is_the_lit_receivers_fit() {
+        use glam::DVec3;
+        use renderer::{Camera, gltf_load::Geometry};
+        use std::time::Duration;
+        let mut g = Geometry::default();
+        g.add_quad(DVec3::ZERO, DVec3::new(20.0, 0.0, 0.0), DVec3::new(0.0, 0.0, -20.0), [0.5; 3]);
+        let light = RectLight::new(Vec3::new(0.0, 2.0, 0.0), Vec3::X, Vec3::Z, Vec3::ONE);
+        let camera = Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
+        let scene = Scene::build(g, vec![light], camera, DVec3::ZERO, Duration::ZERO);
+        let visible: Vec<VisiblePoint> = (0..50 * 50)
+            .map(|k| {
+                let p = Vec3::new(-3.0 + 0.1 * (k % 50) as f32, 0.0, -2.0 + 0.1 * (k / 50) as f32);
+                VisiblePoint { p, n_geom: Vec3::Y, n_shading: Vec3::Y }
+            })
+            .collect();
+        let params = DepthMapParams::new(64);
+        let all_lit =
+            DepthMap::build(&scene, &light, &visible, &DepthMapParams { fit_shadowed: false, ..params });
+        let fitted = DepthMap::build(&scene, &light, &visible, &params);
+        assert_eq!((fitted.origin, fitted.pitch), (all_lit.origin, all_lit.pitch));
+        assert!(fitted.query_point(visible[0].p, Vec3::Y).is_some());
     }
 }
