@@ -268,13 +268,14 @@ pub fn clear_leaves(
     strata: (u32, u32),
 ) -> (u64, u32) {
     let (nx, ny) = (strata.0 as usize, strata.1 as usize);
-    let (lx, ly) = (LEAVES.min(nx), LEAVES.min(ny));
+    let (lx, ly) = leaves_per_axis(strata);
     if lx == 0 || ly == 0 {
         return (0, 0);
     }
     let eps = scene.epsilon.eps;
-    // Light coordinate of leaf boundary x: the first stratum of leaf x starts there.
-    let edge = |x: usize, n: usize, l: usize| ((x * n).div_ceil(l)) as f32 / n as f32;
+    // The first stratum of leaf x (of l leaves over n strata); the light coordinate of the
+    // leaf's lower edge is that over n.
+    let first = |x: usize, n: usize, l: usize| (x * n).div_ceil(l);
     let mut mask = 0u64;
     let mut tests = 0u32;
     // Leaf rectangles [x0, x1) x [y0, y1) still to test: at most 1 + 3 per split level.
@@ -284,21 +285,17 @@ pub fn clear_leaves(
     while top > 0 {
         top -= 1;
         let [x0, x1, y0, y1] = todo[top];
-        let first = |x: usize, n: usize, l: usize| (x * n).div_ceil(l);
-        let samples = (first(x1, nx, lx) - first(x0, nx, lx)) * (first(y1, ny, ly) - first(y0, ny, ly));
-        if samples < MIN_SAMPLES_PER_SHAFT {
+        let (i0, i1) = (first(x0, nx, lx), first(x1, nx, lx));
+        let (j0, j1) = (first(y0, ny, ly), first(y1, ny, ly));
+        if (i1 - i0) * (j1 - j0) < MIN_SAMPLES_PER_SHAFT {
             continue;
         }
-        let a = [edge(x0, nx, lx), edge(x1, nx, lx)];
-        let b = [edge(y0, ny, ly), edge(y1, ny, ly)];
+        let a = [i0 as f32 / nx as f32, i1 as f32 / nx as f32];
+        let b = [j0 as f32 / ny as f32, j1 as f32 / ny as f32];
         let Some(shaft) = Shaft::to_part(light, a, b, p, n_geom, eps) else { continue };
         tests += 1;
         if scene.shaft_clear(&shaft) {
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    mask |= 1 << (x + LEAVES * y);
-                }
-            }
+            mask |= leaf_rect_bits([x0, x1], [y0, y1]);
             continue;
         }
         let (xm, ym) = ((x0 + x1) / 2, (y0 + y1) / 2);
@@ -314,20 +311,30 @@ pub fn clear_leaves(
     (mask, tests)
 }
 
+/// Leaves per axis for an `nx` x `ny` strata grid: at most [`LEAVES`], at most one per
+/// stratum.
+fn leaves_per_axis(strata: (u32, u32)) -> (usize, usize) {
+    (LEAVES.min(strata.0 as usize), LEAVES.min(strata.1 as usize))
+}
+
+/// The mask bits of leaves [x0, x1) x [y0, y1).
+fn leaf_rect_bits(x: [usize; 2], y: [usize; 2]) -> u64 {
+    (y[0]..y[1]).flat_map(|j| (x[0]..x[1]).map(move |i| 1u64 << (i + LEAVES * j))).fold(0, |m, b| m | b)
+}
+
 /// Every leaf bit of an `nx` x `ny` strata grid: [`clear_leaves`]'s mask when the whole light
 /// is clear.
 pub fn all_leaves(strata: (u32, u32)) -> u64 {
-    let (lx, ly) = (LEAVES.min(strata.0 as usize), LEAVES.min(strata.1 as usize));
-    (0..ly).flat_map(|y| (0..lx).map(move |x| 1u64 << (x + LEAVES * y))).fold(0, |m, b| m | b)
+    let (lx, ly) = leaves_per_axis(strata);
+    leaf_rect_bits([0, lx], [0, ly])
 }
 
 /// The leaf of light sample (i, j) of an `nx` x `ny` strata grid, as a bit of
 /// [`clear_leaves`]'s mask.
 #[inline]
 pub fn leaf_bit(i: u32, j: u32, strata: (u32, u32)) -> u64 {
-    let (nx, ny) = strata;
-    let (lx, ly) = (LEAVES.min(nx as usize) as u32, LEAVES.min(ny as usize) as u32);
-    1 << (i * lx / nx + LEAVES as u32 * (j * ly / ny))
+    let (lx, ly) = leaves_per_axis(strata);
+    1 << (i * lx as u32 / strata.0 + LEAVES as u32 * (j * ly as u32 / strata.1))
 }
 
 #[cfg(test)]
@@ -412,11 +419,7 @@ mod tests {
             quads.push((c, u, v));
         }
         let s = scene(&quads, light());
-        let ctx = PrepareContext { scene: &s, light: &s.lights[0], light_index: 0, visible: &[], seed: 0 };
-        let mut plain = Traced::new(TracedParams::plain(1024));
-        let mut culled = Traced::new(TracedParams { samples: 1024, shaft_culling: true });
-        plain.prepare(&ctx).unwrap();
-        culled.prepare(&ctx).unwrap();
+        let (plain, culled) = plain_and_culled(&s);
         let (mut partial, mut points) = (0, 0);
         for k in 0..800u64 {
             let q = if k % 4 == 3 {

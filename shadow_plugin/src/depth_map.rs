@@ -369,9 +369,8 @@ impl DepthMap {
         let mut ys: Vec<(f32, f32)> = fitted.map(|(p, e, _)| (p.y / p.z, *e)).collect();
         let mut z_recv_min = receivers.iter().map(|(p, _, _)| p.z).fold(f32::INFINITY, f32::min);
         let (mut lo, mut hi) = if xs.is_empty() {
-            if receivers.is_empty() {
-                z_recv_min = 1.0;
-            }
+            // No receiver at all (some are always fitted when there are any).
+            z_recv_min = 1.0;
             (Vec2::splat(-1.0), Vec2::splat(1.0))
         } else {
             let (x0, x1) = trimmed_range(&mut xs);
@@ -704,32 +703,41 @@ mod tests {
         map(depth);
     }
 
+    /// A 20 x 20 floor under a 1 x 1 light 2 up, with a 0.2 x 0.2 card 0.5 over it if
+    /// `card`, and `n` x `n` visible floor points 0.1 apart from `corner` (x, z).
+    fn floor_scene(card: bool, n: usize, corner: [f32; 2]) -> (Scene, RectLight, Vec<VisiblePoint>) {
+        use glam::DVec3;
+        use renderer::{Camera, gltf_load::Geometry};
+        use std::time::Duration;
+        let mut g = Geometry::default();
+        g.add_quad(DVec3::ZERO, DVec3::new(20.0, 0.0, 0.0), DVec3::new(0.0, 0.0, -20.0), [0.5; 3]);
+        if card {
+            g.add_quad(
+                DVec3::new(0.3, 0.5, 0.0),
+                DVec3::new(0.2, 0.0, 0.0),
+                DVec3::new(0.0, 0.0, -0.2),
+                [0.5; 3],
+            );
+        }
+        let light = RectLight::new(Vec3::new(0.0, 2.0, 0.0), Vec3::X, Vec3::Z, Vec3::ONE);
+        let camera = Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
+        let scene = Scene::build(g, vec![light], camera, DVec3::ZERO, Duration::ZERO);
+        let visible = (0..n * n)
+            .map(|k| {
+                let p = Vec3::new(corner[0] + 0.1 * (k % n) as f32, 0.0, corner[1] + 0.1 * (k / n) as f32);
+                VisiblePoint { p, n_geom: Vec3::Y, n_shading: Vec3::Y }
+            })
+            .collect();
+        (scene, light, visible)
+    }
+
     /// `fit_shadowed`: on a 20 x 20 floor seen whole, with one small card over it, the map
     /// covers the card's shadow (every receiver whose shaft is not clear lies in it) at a
     /// pitch far finer than a map fitted to the whole lit floor, and a far floor point,
     /// clear, lies outside it.
     #[test]
     fn a_map_fitted_to_the_shadowed_receivers_covers_them_finely() {
-        use glam::DVec3;
-        use renderer::{Camera, gltf_load::Geometry};
-        use std::time::Duration;
-        let mut g = Geometry::default();
-        g.add_quad(DVec3::ZERO, DVec3::new(20.0, 0.0, 0.0), DVec3::new(0.0, 0.0, -20.0), [0.5; 3]);
-        g.add_quad(
-            DVec3::new(0.3, 0.5, 0.0),
-            DVec3::new(0.2, 0.0, 0.0),
-            DVec3::new(0.0, 0.0, -0.2),
-            [0.5; 3],
-        );
-        let light = RectLight::new(Vec3::new(0.0, 2.0, 0.0), Vec3::X, Vec3::Z, Vec3::ONE);
-        let camera = Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
-        let scene = Scene::build(g, vec![light], camera, DVec3::ZERO, Duration::ZERO);
-        let visible: Vec<VisiblePoint> = (0..100 * 100)
-            .map(|k| {
-                let p = Vec3::new(-5.0 + 0.1 * (k % 100) as f32, 0.0, -5.0 + 0.1 * (k / 100) as f32);
-                VisiblePoint { p, n_geom: Vec3::Y, n_shading: Vec3::Y }
-            })
-            .collect();
+        let (scene, light, visible) = floor_scene(true, 100, [-5.0, -5.0]);
         let params = DepthMapParams::new(64);
         let all_lit =
             DepthMap::build(&scene, &light, &visible, &DepthMapParams { fit_shadowed: false, ..params });
@@ -754,20 +762,7 @@ mod tests {
     /// fitting to every lit receiver.
     #[test]
     fn with_no_shadow_in_view_the_fit_is_the_lit_receivers_fit() {
-        use glam::DVec3;
-        use renderer::{Camera, gltf_load::Geometry};
-        use std::time::Duration;
-        let mut g = Geometry::default();
-        g.add_quad(DVec3::ZERO, DVec3::new(20.0, 0.0, 0.0), DVec3::new(0.0, 0.0, -20.0), [0.5; 3]);
-        let light = RectLight::new(Vec3::new(0.0, 2.0, 0.0), Vec3::X, Vec3::Z, Vec3::ONE);
-        let camera = Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
-        let scene = Scene::build(g, vec![light], camera, DVec3::ZERO, Duration::ZERO);
-        let visible: Vec<VisiblePoint> = (0..50 * 50)
-            .map(|k| {
-                let p = Vec3::new(-3.0 + 0.1 * (k % 50) as f32, 0.0, -2.0 + 0.1 * (k / 50) as f32);
-                VisiblePoint { p, n_geom: Vec3::Y, n_shading: Vec3::Y }
-            })
-            .collect();
+        let (scene, light, visible) = floor_scene(false, 50, [-3.0, -2.0]);
         let params = DepthMapParams::new(64);
         let all_lit =
             DepthMap::build(&scene, &light, &visible, &DepthMapParams { fit_shadowed: false, ..params });
