@@ -102,6 +102,7 @@ fn main() {
         grid,
         blend,
         heightfield,
+        mirrored: EdgeTableParams::default().mirrored,
     };
     let d = EdgeTableParams::default();
     let mut configs: Vec<(String, EdgeTableParams)> = vec![("edge_table default".to_string(), d)];
@@ -143,6 +144,8 @@ fn main() {
     let mut all_lit = d;
     all_lit.depth_map.fit_shadowed = false;
     configs.push(("edge_table default, fit_shadowed off".to_string(), all_lit));
+    let unmirrored = EdgeTableParams { mirrored: false, ..d };
+    configs.push(("edge_table default, mirrored off".to_string(), unmirrored));
 
     for path in &scenes {
         let file = SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));

@@ -129,6 +129,8 @@ pub struct EdgeTableConfig {
     pub grazing_cos: Option<f32>,
     /// Fit the map to the receivers something may shadow (shaft test), not to all lit ones.
     pub fit_shadowed: Option<bool>,
+    /// Build the masks with sub-pixel offsets up to 1/2 only and read the rest mirrored.
+    pub mirrored: Option<bool>,
 }
 
 /// `[shadows.traced]`.
@@ -248,6 +250,9 @@ impl EdgeTableConfig {
         }
         if let Some(f) = self.fit_shadowed {
             p.depth_map.fit_shadowed = f;
+        }
+        if let Some(m) = self.mirrored {
+            p.mirrored = m;
         }
         p
     }
@@ -428,7 +433,10 @@ mod tests {
         assert_eq!(params.grid, [2, 2, 1]);
         assert_eq!(params.blend, Blend::Trilinear);
         assert_eq!(params.depth_map.resolution, 512);
+        assert!(params.mirrored);
         assert_eq!(ShadowsConfig::default().edge_table.params(), EdgeTableParams::balanced());
+        let c = ShadowsConfig::from_table(&table("[edge_table]\nmirrored = false"), p).unwrap();
+        assert!(!c.edge_table.params().mirrored && !EdgeTableParams::paper().mirrored);
     }
 
     #[test]

@@ -29,6 +29,8 @@
 //! | `hidden_layer` | bool | true | `plates`: a second depth layer, the first surface under each pixel's slab, read like the first (a ray is blocked by a slab of either) |
 //! | `closed_volumes` | bool | true | `plates`: a closed mesh is solid from its front face down to its back face (a second depth layer) |
 //! | `grazing_cos` | float | 0.2 | receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
+//! | `fit_shadowed` | bool | true | fit the map to the receivers whose shaft to the light is not clear; the others are traced (a clear shaft answers at once) |
+//! | `mirrored` | bool | true | build only the masks at sub-pixel offsets up to 1/2 and read the others as their mirror images (the same crossings, bit for bit; `paper`: false) |
 //!
 //! `samples` (`[shadows]`) is the number of rays per mask (at most 4096).
 //!
@@ -75,6 +77,12 @@ pub struct EdgeTableParams {
     pub blend: Blend,
     /// How the depth map's heightfield is read (variant A or B).
     pub heightfield: Heightfield,
+    /// Build only the masks with sub-pixel offsets at most 1/2 and read the others as their
+    /// mirror images (technical note 10.2): a point at offset (1 - fx, fy) seen through the
+    /// mask at (fx, fy) with pixel columns and the samples' x reflected gets the same
+    /// crossings, bit for bit. 4x fewer masks on a 4 x 4 grid (less memory, less to build,
+    /// more of it in cache); a mirrored pair shares its (reflected) samples.
+    pub mirrored: bool,
 }
 
 impl EdgeTableParams {
@@ -87,6 +95,7 @@ impl EdgeTableParams {
             grid: [4, 4, 1],
             blend: Blend::Nearest,
             heightfield: Heightfield::Shells,
+            mirrored: false,
         }
     }
     /// The default, chosen by measurement (docs/edge_table_accuracy.md): 256^2 map,
@@ -99,6 +108,7 @@ impl EdgeTableParams {
             grid: [4, 4, 2],
             blend: Blend::Nearest,
             heightfield: Heightfield::Plates,
+            mirrored: true,
         }
     }
     /// Finer and slower: 512^2 map, 8 x 8 x 4 masks, trilinear.
@@ -108,6 +118,7 @@ impl EdgeTableParams {
             grid: [8, 8, 4],
             blend: Blend::Trilinear,
             heightfield: Heightfield::Plates,
+            mirrored: true,
         }
     }
 }
@@ -416,17 +427,47 @@ impl Mask {
         heightfield: Heightfield,
         out: &mut [u64],
     ) -> QueryStats {
+        self.query_mirrored(map, base, [false; 2], pz, h_stop, heightfield, out)
+    }
+
+    /// [`Mask::query`] for the mirror image of this mask: with `mirror[0]`, a point at
+    /// offset (1 - fx, fy) in pixel `base` (the mask's pixel columns reflected, cell dx read
+    /// at `base.x - dx`), whose bit r is the ray to sample r reflected in x (`mirror[1]`
+    /// likewise in y). The crossings are the same numbers: (k - fx) and ((1 - k) - (1 - fx))
+    /// round alike, and a side's s = (k - fx) pz pitch / Lx is unchanged when both signs
+    /// flip.
+    #[allow(clippy::too_many_arguments)]
+    pub fn query_mirrored(
+        &self,
+        map: &DepthMap,
+        base: [i32; 2],
+        mirror: [bool; 2],
+        pz: f32,
+        h_stop: f32,
+        heightfield: Heightfield,
+        out: &mut [u64],
+    ) -> QueryStats {
+        let sign = mirror.map(|m| if m { -1 } else { 1 });
+        let at = |dx: i32, dy: i32| [base[0] + sign[0] * dx, base[1] + sign[1] * dy];
         let mut stats = QueryStats::default();
         let words = self.words;
         let out = &mut out[..words];
         out.copy_from_slice(&self.full);
-        let floor = |c: &Cell| floor_height(map.at(base[0] + c.dx, base[1] + c.dy), pz);
-        let layer_floor =
-            |layer: usize, c: &Cell| floor_height(map.layer_at(layer, base[0] + c.dx, base[1] + c.dy), pz);
+        let floor = |c: &Cell| {
+            let [i, j] = at(c.dx, c.dy);
+            floor_height(map.at(i, j), pz)
+        };
+        let layer_floor = |layer: usize, c: &Cell| {
+            let [i, j] = at(c.dx, c.dy);
+            floor_height(map.layer_at(layer, i, j), pz)
+        };
         // Where a ray must leave a pixel to have passed through its floor: above the floor
         // itself (shells), or above the bottom of its slab (plates).
         let exit_height = |layer: usize, c: &Cell, h: f32| match heightfield {
-            Heightfield::Plates => map.layer_heights(layer, base[0] + c.dx, base[1] + c.dy, pz).1,
+            Heightfield::Plates => {
+                let [i, j] = at(c.dx, c.dy);
+                map.layer_heights(layer, i, j, pz).1
+            }
             _ => h,
         };
         // `plates` reads the hidden layer too: a ray is blocked by a slab of either layer,
@@ -541,8 +582,8 @@ impl Mask {
                     // The highest floor over the block, of either layer (the hidden layer
                     // lies below the first): below every crossing into it, no pixel of it
                     // blocks anything. Measured: see `benches/edge_table.rs` (flat_unshrunk).
-                    let lo = [base[0] + b.lo[0], base[1] + b.lo[1]];
-                    let hi = [base[0] + b.hi[0], base[1] + b.hi[1]];
+                    let (a, z) = (at(b.lo[0], b.lo[1]), at(b.hi[0], b.hi[1]));
+                    let (lo, hi) = ([a[0].min(z[0]), a[1].min(z[1])], [a[0].max(z[0]), a[1].max(z[1])]);
                     if self.cull_blocks && floor_height(map.min_depth(lo, hi), pz) < b.first {
                         stats.blocks_culled += 1;
                         continue;
@@ -625,8 +666,11 @@ pub struct EdgeTable {
 
 struct Prepared {
     map: DepthMap,
-    /// Indexed [depth level][sub-pixel y][sub-pixel x].
+    /// The masks built (all of the grid, or its mirror-image classes' representatives).
     masks: Vec<Mask>,
+    /// Per grid cell, indexed [depth level][sub-pixel y][sub-pixel x]: the mask built for it
+    /// and whether it is read mirrored in x and y.
+    grid_masks: Vec<(u32, [bool; 2])>,
     /// Depth of each level (ascending).
     levels: Vec<f32>,
 }
@@ -821,9 +865,30 @@ impl LightShadowing for EdgeTable {
         // skipped, so the overshoot is at most one mask per thread.
         let budget = mask_memory_budget();
         let built = AtomicU64::new(0);
-        let masks: Vec<Option<Mask>> = (0..(gx * gy * gz) as usize)
-            .into_par_iter()
+        // With `mirrored`, a sub-pixel column a > (gx - 1) / 2 is read as column gx - 1 - a
+        // mirrored (likewise rows); only the others are built.
+        let fold = |a: u32, g: u32| {
+            if self.params.mirrored && a > (g - 1) / 2 { (g - 1 - a, true) } else { (a, false) }
+        };
+        let mut built_index = vec![u32::MAX; (gx * gy * gz) as usize];
+        let mut to_build = Vec::new();
+        for m in 0..gx * gy * gz {
+            let (ax, ay) = (m % gx, (m / gx) % gy);
+            if !fold(ax, gx).1 && !fold(ay, gy).1 {
+                built_index[m as usize] = to_build.len() as u32;
+                to_build.push(m);
+            }
+        }
+        let grid_masks: Vec<(u32, [bool; 2])> = (0..gx * gy * gz)
             .map(|m| {
+                let ((ax, mx), (ay, my), k) = (fold(m % gx, gx), fold((m / gx) % gy, gy), m / (gx * gy));
+                (built_index[((k * gy + ay) * gx + ax) as usize], [mx, my])
+            })
+            .collect();
+        let masks: Vec<Option<Mask>> = to_build
+            .par_iter()
+            .map(|&m| {
+                let m = m as usize;
                 if built.load(Ordering::Relaxed) > budget {
                     return None;
                 }
@@ -855,7 +920,7 @@ impl LightShadowing for EdgeTable {
                 ),
             });
         };
-        self.state = Some(Prepared { map, masks, levels });
+        self.state = Some(Prepared { map, masks, grid_masks, levels });
         Ok(())
     }
 
@@ -885,15 +950,17 @@ impl LightShadowing for EdgeTable {
         let mut visible = [0u64; MAX_WORDS];
         let mut above = [0u64; MAX_WORDS];
         let (mut v, mut lookups, mut early_outs, mut culled) = (0.0f32, 0u64, 0u64, 0u64);
-        for &(m, shift, w) in &chosen[..count] {
-            let mask = &st.masks[m];
+        for &(g, shift, w) in &chosen[..count] {
+            let (m, mirror) = st.grid_masks[g];
+            let mask = &st.masks[m as usize];
             if h_stop > mask.h_max {
                 return self.fallback.trace(scene, q);
             }
             let words = bits::words(mask.samples.len());
-            let stats = mask.query(
+            let stats = mask.query_mirrored(
                 map,
                 [i + shift[0], j + shift[1]],
+                mirror,
                 p.z,
                 h_stop,
                 self.params.heightfield,
@@ -902,8 +969,14 @@ impl LightShadowing for EdgeTable {
             lookups += stats.lookups;
             early_outs += stats.early_out as u64;
             culled += stats.blocks_culled;
-            let all_above =
-                samples::above_horizon(frame, &mask.samples, q.p, q.n_shading, &mut above[..words]);
+            let all_above = samples::above_horizon(
+                frame,
+                &mask.samples,
+                mirror.map(|m| if m { -1.0 } else { 1.0 }).into(),
+                q.p,
+                q.n_shading,
+                &mut above[..words],
+            );
             let (n_visible, n_above) = if all_above {
                 (bits::count(&visible[..words]), mask.samples.len() as u32)
             } else {

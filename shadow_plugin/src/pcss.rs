@@ -250,7 +250,7 @@ impl LightShadowing for Pcss {
         samples::stratified(taps, frame.half_size, &mut Rng::new(q.seed));
         let w = bits::words(n);
         let mut above = [0u64; MAX_WORDS];
-        samples::above_horizon(frame, taps, q.p, q.n_shading, &mut above[..w]);
+        samples::above_horizon(frame, taps, Vec2::ONE, q.p, q.n_shading, &mut above[..w]);
         let (mut lit, mut n_above) = (0u32, 0u32);
         for (r, s) in taps.iter().enumerate() {
             if above[r / 64] >> (r % 64) & 1 == 0 {

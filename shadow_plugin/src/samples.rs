@@ -21,8 +21,17 @@ pub fn stratified(out: &mut [Vec2], half_size: Vec2, rng: &mut Rng) {
 /// Bits of the samples above the tangent plane of (p, n): the part of the light that the
 /// irradiance counts and visibility is a fraction of. Returns whether every sample is above
 /// (the common case, answered from the light's corners without touching the samples).
+/// `mirror` (each component 1 or -1) reflects the samples across the light's axes first
+/// (a mirrored edge-table mask's samples); the light's corners are symmetric.
 #[inline]
-pub fn above_horizon(frame: &LightFrame, samples: &[Vec2], p: Vec3, n: Vec3, out: &mut [u64]) -> bool {
+pub fn above_horizon(
+    frame: &LightFrame,
+    samples: &[Vec2],
+    mirror: Vec2,
+    p: Vec3,
+    n: Vec3,
+    out: &mut [u64],
+) -> bool {
     let n_samples = samples.len();
     let corners = [Vec2::new(-1.0, -1.0), Vec2::new(1.0, -1.0), Vec2::new(1.0, 1.0), Vec2::new(-1.0, 1.0)];
     let all_above = corners.iter().all(|c| {
@@ -35,11 +44,54 @@ pub fn above_horizon(frame: &LightFrame, samples: &[Vec2], p: Vec3, n: Vec3, out
     }
     // n . (C + Lx x + Ly y - p) > 0, with the sample-independent parts taken out: two
     // multiply-adds per sample instead of a frame transform.
-    let (a, b, c) = (n.dot(frame.x), n.dot(frame.y), n.dot(frame.origin - p));
+    let (a, b, c) = (n.dot(frame.x) * mirror.x, n.dot(frame.y) * mirror.y, n.dot(frame.origin - p));
     for (r, s) in samples.iter().enumerate() {
         if a * s.x + b * s.y + c <= 0.0 {
             out[r / 64] &= !(1u64 << (r % 64));
         }
     }
     false
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `mirror` must read as the reflected samples themselves, bit for bit, for receivers
+    /// that see part of the light (the tangent plane through the light) and all of it.
+    #[test]
+    fn mirrored_horizon_bits_are_the_reflected_samples_bits() {
+        let frame = LightFrame {
+            origin: Vec3::new(0.3, 2.0, -0.1),
+            x: Vec3::X,
+            y: Vec3::new(0.0, 0.6, 0.8),
+            z: Vec3::new(0.0, -0.8, 0.6),
+            half_size: Vec2::new(0.7, 0.4),
+        };
+        let mut rng = Rng::new(7);
+        let mut samples = vec![Vec2::ZERO; 256];
+        stratified(&mut samples, frame.half_size, &mut rng);
+        let (mut partial, mut all) = (0, 0);
+        for k in 0..200 {
+            let p = Vec3::new(rng.next_f32() - 0.5, 2.0 + rng.next_f32() - 0.5, rng.next_f32() - 0.5);
+            let a = k as f32 * 0.7;
+            // Every other receiver faces the light's centre (wholly above, mostly).
+            let n = if k % 2 == 0 {
+                (frame.origin - p).normalize()
+            } else {
+                Vec3::new(a.cos() * 0.9, a.sin() * 0.9, 0.44 * (k % 3) as f32 - 0.44).normalize()
+            };
+            for mirror in [Vec2::new(-1.0, 1.0), Vec2::new(1.0, -1.0), Vec2::new(-1.0, -1.0)] {
+                let reflected: Vec<Vec2> = samples.iter().map(|s| *s * mirror).collect();
+                let (mut got, mut want) = ([0u64; 4], [0u64; 4]);
+                let g = above_horizon(&frame, &samples, mirror, p, n, &mut got);
+                let w = above_horizon(&frame, &reflected, Vec2::ONE, p, n, &mut want);
+                assert_eq!((g, got), (w, want), "point {p}, normal {n}, mirror {mirror}");
+                let c = bits::count(&want);
+                partial += (c > 0 && c < 256) as u32;
+                all += g as u32;
+            }
+        }
+        assert!(partial > 60 && all > 60, "{partial} partly and {all} wholly above");
+    }
 }

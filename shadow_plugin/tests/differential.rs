@@ -572,6 +572,84 @@ fn edge_table_matches_depth_march_bit_for_bit() {
     assert!(t.blocks_culled > 1000, "only {} blocks culled", t.blocks_culled);
 }
 
+/// A mask read mirrored (`Mask::query_mirrored`, how `mirrored` grids serve the sub-pixel
+/// offsets above 1/2) gives, bit for bit, the oracle's answer at the mirror point: offset
+/// (1 - fx, fy), (fx, 1 - fy) or both, in the same pixel, with the mask's samples reflected
+/// the same way. Offsets are those whose mirror 1 - f is exact in f32 (the grids' cell
+/// centres (a + 1/2) / g for g a power of two, and any f >= 1/2); pixels near depth steps,
+/// every reading, with ties between crossings and floors in half the cases.
+#[test]
+fn mirrored_masks_match_depth_march_at_the_mirror_point() {
+    let mut rng = Random(Rng::new(0x5eed_0f_a11_0e55));
+    let (mut compared, mut differing_bits, mut blocked, mut partial) = (0u64, 0u64, 0u64, 0u64);
+    let mut reports = Vec::new();
+    for m in 0..60 {
+        let (map, ground) = random_map(&mut rng);
+        let res = map.resolution as i32;
+        for p in 0..4 {
+            let [i, j] = pick_pixel(&mut rng, &map, (res / 6).max(2));
+            let mut f = || {
+                if rng.chance(0.7) {
+                    let g = rng.pick(&[1u32, 2, 4, 8, 16]);
+                    (rng.below(g as usize) as f32 + 0.5) / g as f32
+                } else {
+                    rng.range(0.5, 1.0)
+                }
+            };
+            let offset = Vec2::new(f(), f());
+            let depth_kind = rng.below(8);
+            let pz = pick_depth(&mut rng, &map, &ground, i, j, depth_kind);
+            let n = [64usize, 256, 1024][(m * 4 + p) % 3];
+            let (samples, _) = light_samples(&mut rng, n, map.frame.half_size);
+            let mp = MapPoint { pixel: [i, j], offset, z: pz };
+            let map = if rng.chance(0.5) {
+                let k = 1 + rng.below(12);
+                tie_floors(&mut rng, &map, &mp, &samples, k).0
+            } else {
+                map.clone()
+            };
+            let (z_stop, _) = map.stop_depth(mp.pixel, pz);
+            let h_stop = stop_height(z_stop, pz);
+            let mask = Mask::build(offset, pz, samples, map.pitch, stop_height(map.z_min, pz));
+            for mirror in [[true, false], [false, true], [true, true]] {
+                let sign = Vec2::new(if mirror[0] { -1.0 } else { 1.0 }, if mirror[1] { -1.0 } else { 1.0 });
+                let at = MapPoint {
+                    offset: Vec2::new(
+                        if mirror[0] { 1.0 - offset.x } else { offset.x },
+                        if mirror[1] { 1.0 - offset.y } else { offset.y },
+                    ),
+                    ..mp
+                };
+                let reflected: Vec<Vec2> = mask.samples.iter().map(|s| *s * sign).collect();
+                for hf in READINGS {
+                    let a = march(&map, &at, &reflected, hf);
+                    let mut b = [0xa5a5_a5a5_a5a5_a5a5u64; MAX_WORDS];
+                    mask.query_mirrored(&map, mp.pixel, mirror, pz, h_stop, hf, &mut b);
+                    let b = &b[..words(n)];
+                    let d = differing(&a, b);
+                    let visible = count(&a) as u64;
+                    compared += n as u64;
+                    differing_bits += d;
+                    blocked += n as u64 - visible;
+                    partial += (visible > 0 && visible < n as u64) as u64;
+                    if d > 0 && reports.len() < 8 {
+                        reports.push(format!(
+                            "map {m} point {p} {hf:?} mirror {mirror:?}: {d} of {n} bits differ; offset \
+                             {offset:?}, pixel {:?}, pz {pz}",
+                            mp.pixel
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    println!("{compared} mirrored bits compared, {blocked} blocked, {partial} partly visible cases");
+    assert_eq!(differing_bits, 0, "mirrored masks disagree with the march:\n{}", reports.join("\n"));
+    // Not trivial: many blocked and visible bits, many penumbra cases.
+    assert!(blocked > compared / 5 && compared - blocked > compared / 5, "{blocked} of {compared} blocked");
+    assert!(partial > 100, "only {partial} penumbra cases");
+}
+
 /// The oracle against geometry, on hand-built maps: a flat floor, and a plate at depth 2 over
 /// a floor at depth 4 covering either the point's whole filter region or a half-plane; for
 /// points inside and on the sides and corners of their pixel. The masks must agree on each.
