@@ -731,6 +731,14 @@ mod tests {
         (scene, light, visible)
     }
 
+    /// 64^2 maps of the same receivers fitted to every lit one and to the shadowed ones.
+    fn both_fits(scene: &Scene, light: &RectLight, visible: &[VisiblePoint]) -> (DepthMap, DepthMap) {
+        let params = DepthMapParams::new(64);
+        let all_lit =
+            DepthMap::build(scene, light, visible, &DepthMapParams { fit_shadowed: false, ..params });
+        (all_lit, DepthMap::build(scene, light, visible, &params))
+    }
+
     /// `fit_shadowed`: on a 20 x 20 floor seen whole, with one small card over it, the map
     /// covers the card's shadow (every receiver whose shaft is not clear lies in it) at a
     /// pitch far finer than a map fitted to the whole lit floor, and a far floor point,
@@ -738,10 +746,7 @@ mod tests {
     #[test]
     fn a_map_fitted_to_the_shadowed_receivers_covers_them_finely() {
         let (scene, light, visible) = floor_scene(true, 100, [-5.0, -5.0]);
-        let params = DepthMapParams::new(64);
-        let all_lit =
-            DepthMap::build(&scene, &light, &visible, &DepthMapParams { fit_shadowed: false, ..params });
-        let fitted = DepthMap::build(&scene, &light, &visible, &params);
+        let (all_lit, fitted) = both_fits(&scene, &light, &visible);
         assert!(fitted.pitch * 4.0 < all_lit.pitch, "pitch {} against {}", fitted.pitch, all_lit.pitch);
         let eps = scene.epsilon.eps;
         let mut shadowed = 0;
@@ -763,10 +768,7 @@ mod tests {
     #[test]
     fn with_no_shadow_in_view_the_fit_is_the_lit_receivers_fit() {
         let (scene, light, visible) = floor_scene(false, 50, [-3.0, -2.0]);
-        let params = DepthMapParams::new(64);
-        let all_lit =
-            DepthMap::build(&scene, &light, &visible, &DepthMapParams { fit_shadowed: false, ..params });
-        let fitted = DepthMap::build(&scene, &light, &visible, &params);
+        let (all_lit, fitted) = both_fits(&scene, &light, &visible);
         assert_eq!((fitted.origin, fitted.pitch), (all_lit.origin, all_lit.pitch));
         assert!(fitted.query_point(visible[0].p, Vec3::Y).is_some());
     }
