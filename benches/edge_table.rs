@@ -21,7 +21,7 @@
 //!   the same rays marched one by one (`depth_march::march_bits`); the bench asserts that it
 //!   gives the query's bits.
 //! - `visibility/{all,lit,penumbra,umbra,fallback}/{256,1024}`: `EdgeTable::visibility` with
-//!   the default parameters (`balanced`: 256^2 map, 4 x 4 x 2 masks, nearest, plates),
+//!   the default parameters (`balanced`: 256^2 map, 4 x 4 x 4 masks, nearest, plates),
 //!   prepared on the default scene (`scenes/default.toml`, quads only) from the primary hits
 //!   of a 160 x 120 frame at pixel centres, over those 19,200 hits: all, and split by how
 //!   they are answered (fallback: by traced rays, all on the back wall; else by visibility
@@ -81,7 +81,9 @@
 //! A lit point costs ~10x the flat query inside `visibility` (the rest of the per-point path
 //! outside the kernel), and the 1.5% of points answered by traced rays take 40% (256) to
 //! 55-75% (1024) of the frame's visibility time. `prepare` took 29 ms (256) and 57 ms
-//! (1024) on 2 threads (32 masks, 1.2 MB and 6.5 MB). The default scene's own map is
+//! (1024) on 2 threads (32 masks, 1.2 MB and 6.5 MB; the `visibility` rows were measured
+//! with the then default 4 x 4 x 2 grid, every mask built, before mirrored masks and four
+//! depth levels). The default scene's own map is
 //! coarser than `small` (pitch 0.027: the back wall widens the frustum), so its regions are
 //! smaller still.
 

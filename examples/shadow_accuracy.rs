@@ -107,7 +107,7 @@ fn main() {
     let d = EdgeTableParams::default();
     let mut configs: Vec<(String, EdgeTableParams)> = vec![("edge_table default".to_string(), d)];
     for res in [256, 512] {
-        for grid in [[4, 4, 2], [8, 8, 4]] {
+        for grid in [[4, 4, 4], [8, 8, 4]] {
             for blend in [Blend::Nearest, Blend::Trilinear] {
                 configs.push((
                     format!("edge_table {res} {}x{}x{} {blend:?}", grid[0], grid[1], grid[2]).to_lowercase(),
@@ -115,6 +115,14 @@ fn main() {
                 ));
             }
         }
+    }
+    // The depth-spacing decision: the previous default (two depth levels) and as many
+    // masks built as it, spent on depth (2 x 2 x 8 mirrored builds 8) rather than sub-pixel.
+    for grid in [[4, 4, 2], [2, 2, 8]] {
+        configs.push((
+            format!("edge_table 256 {}x{}x{} nearest", grid[0], grid[1], grid[2]),
+            et(256, grid, Blend::Nearest, d.heightfield),
+        ));
     }
     for h in [Heightfield::Solid, Heightfield::Shells, Heightfield::Plates] {
         if h != d.heightfield {

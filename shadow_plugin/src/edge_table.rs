@@ -20,7 +20,7 @@
 //! |---|---|---|---|
 //! | `depth_map` | int | 256 | depth-map pixels per side |
 //! | `preset` | "paper" / "balanced" / "fine" | "balanced" | the starting point the other keys override |
-//! | `grid` | [int; 3] | [4, 4, 2] | masks over (sub-pixel x, sub-pixel y, depth) |
+//! | `grid` | [int; 3] | [4, 4, 4] | masks over (sub-pixel x, sub-pixel y, depth) |
 //! | `blend` | "nearest" / "trilinear" | "nearest" | take the nearest mask, or blend the 8 (4 with one depth level) nearest masks' visibilities |
 //! | `heightfield` | "plates" / "shells" / "solid" | "plates" | how the depth map is read ([`Heightfield`]) |
 //! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
@@ -40,7 +40,7 @@
 //! samples = 1024
 //! [shadows.edge_table]
 //! depth_map = 256
-//! grid = [4, 4, 2]
+//! grid = [4, 4, 4]
 //! blend = "nearest"
 //! heightfield = "plates"
 //! ```
@@ -98,14 +98,14 @@ impl EdgeTableParams {
             mirrored: false,
         }
     }
-    /// The default, chosen by measurement (docs/edge_table_accuracy.md): 256^2 map,
-    /// 4 x 4 x 2 masks, nearest mask, thin plates. On the five measured scenes it had the
-    /// lowest shadow cost; 8 x 8 x 4 grids and trilinear blending lowered the RMSE by at
-    /// most 0.02 (monobloc-chair) and mostly by under 0.005, at 3-10x the cost.
+    /// The default, chosen by measurement (docs/edge_table_accuracy.md, ARCHITECTURE.md):
+    /// 256^2 map, 4 x 4 x 4 masks, nearest mask, thin plates. Four depth levels instead of
+    /// two lowered the RMSE on six of seven scenes (up to 0.0301 to 0.0273) at about the
+    /// same cost; 8 x 8 x 4 grids and trilinear blending lower it less per unit of cost.
     pub const fn balanced() -> Self {
         Self {
             depth_map: DepthMapParams::new(256),
-            grid: [4, 4, 2],
+            grid: [4, 4, 4],
             blend: Blend::Nearest,
             heightfield: Heightfield::Plates,
             mirrored: true,

@@ -134,7 +134,7 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
         ShadowsConfig { method: MethodName::DepthMarch, samples: n, ..base.clone() },
     ));
     let maps: &[u32] = if quick { &[256] } else { &[256, 512] };
-    let grids: &[[u32; 3]] = if quick { &[[4, 4, 2]] } else { &[[4, 4, 2], [8, 8, 4]] };
+    let grids: &[[u32; 3]] = if quick { &[[4, 4, 4]] } else { &[[4, 4, 4], [8, 8, 4]] };
     for &map in maps {
         for &grid in grids {
             for blend in [BlendName::Nearest, BlendName::Trilinear] {
@@ -157,7 +157,7 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
     let counts: &[u32] = if quick { &[16] } else { &[64, 256] };
     for &m in counts {
         out.push(setting(
-            format!("edge_table 256 4x4x2 nearest N={m}"),
+            format!("edge_table 256 4x4x4 nearest N={m}"),
             ShadowsConfig { method: MethodName::EdgeTable, samples: m, ..base.clone() },
         ));
     }
