@@ -163,6 +163,10 @@ struct Cell {
     out_edges: [u32; 4],
     /// The lowest crossing into this pixel (+inf for the own pixel).
     in_first: f32,
+    /// The highest crossing out of this pixel when every ray that enters it (starts in
+    /// it, for the own pixel) also leaves it within the march; +inf when some ray's march
+    /// ends inside it. A slab whose bottom is at or above it blocks nothing here.
+    out_last: f32,
 }
 
 /// A square block of a mask's region (`BLOCK` x `BLOCK` pixels, aligned to the model
@@ -237,8 +241,14 @@ impl Mask {
         bits::fill_first(&mut full, n);
 
         let mut cell_index: std::collections::HashMap<[i32; 2], u32> = std::collections::HashMap::new();
-        let mut cells =
-            vec![Cell { dx: 0, dy: 0, in_edges: [NONE; 2], out_edges: [NONE; 4], in_first: f32::INFINITY }];
+        let mut cells = vec![Cell {
+            dx: 0,
+            dy: 0,
+            in_edges: [NONE; 2],
+            out_edges: [NONE; 4],
+            in_first: f32::INFINITY,
+            out_last: f32::INFINITY,
+        }];
         cell_index.insert([0, 0], 0);
         let mut cell_of = |c: [i32; 2], cells: &mut Vec<Cell>| -> u32 {
             *cell_index.entry(c).or_insert_with(|| {
@@ -248,6 +258,7 @@ impl Mask {
                     in_edges: [NONE; 2],
                     out_edges: [NONE; 4],
                     in_first: f32::INFINITY,
+                    out_last: f32::INFINITY,
                 });
                 cells.len() as u32 - 1
             })
@@ -301,6 +312,22 @@ impl Mask {
             slot(&mut cells[from_i as usize].out_edges);
             let c = &mut cells[to_i as usize];
             c.in_first = c.in_first.min(first);
+        }
+        // A ray's path is monotone in x and y, so it enters a pixel at most once and leaves it
+        // at most once: when as many crossings leave a pixel as enter it, every ray that
+        // enters also leaves, and the last of them to leave sets `out_last`.
+        let mut entering = vec![0u32; cells.len()];
+        let mut leaving = vec![0u32; cells.len()];
+        let mut last_out = vec![f32::NEG_INFINITY; cells.len()];
+        entering[0] = n as u32;
+        for e in &edges {
+            entering[e.to as usize] += e.len;
+            leaving[e.from as usize] += e.len;
+            let top = heights[(e.start + e.len - 1) as usize];
+            last_out[e.from as usize] = last_out[e.from as usize].max(top);
+        }
+        for (k, c) in cells.iter_mut().enumerate() {
+            c.out_last = if leaving[k] == entering[k] { last_out[k] } else { f32::INFINITY };
         }
         // Sort edges and cells by their lowest crossing, remapping indices.
         let mut edge_order: Vec<u32> = (0..edges.len() as u32).collect();
@@ -533,6 +560,15 @@ impl Mask {
                     if k > 0 && h < c.in_first {
                         return true; // no ray enters below this floor: the floor blocks nothing
                     }
+                    // Every ray through this pixel leaves it at or below the slab's bottom
+                    // (the floor, for shells): they all pass under it, and it blocks nothing.
+                    // Measured (240x180, 1024 samples, same bytes): 16% fewer lookups on
+                    // metal-rough-spheres (render 0.78 s against 0.83 s, best of five at
+                    // 320x240), 4.5% on monobloc-chair, under 4% on the other five scenes.
+                    let h_exit = exit_height(layer, c, h);
+                    if h_exit.min(h_lim) >= c.out_last {
+                        return true;
+                    }
                     // In: entered at or below the floor (the own pixel: P itself, at 0).
                     let in_m = &mut in_mask[..words];
                     if k == 0 {
@@ -555,7 +591,6 @@ impl Mask {
                     // Out: left at or below the floor (plates: the slab's bottom).
                     let out_m = &mut out_mask[..words];
                     out_m.copy_from_slice(&self.full);
-                    let h_exit = exit_height(layer, c, h);
                     for &e in c.out_edges.iter().filter(|&&e| e != NONE) {
                         and(out_m, below(&self.edges[e as usize], h_exit));
                         stats.lookups += 1;
