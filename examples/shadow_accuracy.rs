@@ -141,8 +141,8 @@ fn main() {
     open.depth_map.closed_volumes = false;
     configs.push(("edge_table default, closed_volumes off".to_string(), open));
     let mut offset = d;
-    offset.depth_map.normal_offset = 0.5;
-    configs.push(("edge_table default, normal_offset 0.5".to_string(), offset));
+    offset.depth_map.normal_offset = 1.0;
+    configs.push(("edge_table default, normal_offset 1.0".to_string(), offset));
     let mut one_layer = d;
     one_layer.depth_map.hidden_layer = false;
     configs.push(("edge_table default, hidden_layer off".to_string(), one_layer));

@@ -123,7 +123,7 @@ pub const DEFAULT_SLAB: f32 = 2.0;
 pub const DEFAULT_GRAZING_COS: f32 = 0.2;
 
 /// The default grazing normal offset, in pixel footprints.
-pub const DEFAULT_NORMAL_OFFSET: f32 = 1.0;
+pub const DEFAULT_NORMAL_OFFSET: f32 = 0.5;
 
 impl Default for DepthMapParams {
     fn default() -> Self {

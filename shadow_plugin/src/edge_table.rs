@@ -25,7 +25,7 @@
 //! | `heightfield` | "plates" / "shells" / "solid" | "plates" | how the depth map is read ([`Heightfield`]) |
 //! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
 //! | `slab_thickness` | float | 2.0 | `plates`: each floor is a slab this many pixel footprints thick |
-//! | `normal_offset` | float | 1.0 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
+//! | `normal_offset` | float | 0.5 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
 //! | `hidden_layer` | bool | true | `plates`: a second depth layer, the first surface under each pixel's slab, read like the first (a ray is blocked by a slab of either) |
 //! | `closed_volumes` | bool | true | `plates`: a closed mesh is solid from its front face down to its back face (a second depth layer) |
 //! | `grazing_cos` | float | 0.2 | receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |

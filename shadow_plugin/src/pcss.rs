@@ -61,7 +61,7 @@
 //! | `depth_map` | int | 256 | depth-map pixels per side |
 //! | `blocker_samples` | int | 32 | light samples read by the blocker search (1 to 4096) |
 //! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
-//! | `normal_offset` | float | 1.0 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
+//! | `normal_offset` | float | 0.5 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
 //! | `grazing_cos` | float | 0 | receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
 //!
 //! `samples` (`[shadows]`) is the number of PCF taps (at most 4096).
