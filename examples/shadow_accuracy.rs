@@ -149,6 +149,9 @@ fn main() {
     let mut no_grazing = d;
     no_grazing.depth_map.grazing_cos = 0.0;
     configs.push(("edge_table default, grazing_cos 0 (off)".to_string(), no_grazing));
+    let mut less_grazing = d;
+    less_grazing.depth_map.grazing_cos = 0.2;
+    configs.push(("edge_table default, grazing_cos 0.2".to_string(), less_grazing));
     let mut all_lit = d;
     all_lit.depth_map.fit_shadowed = false;
     configs.push(("edge_table default, fit_shadowed off".to_string(), all_lit));

@@ -6,7 +6,7 @@
 //! Scene file: `method = "depth_march"`, with `[shadows.depth_march]` holding the depth-map
 //! keys of `[shadows.edge_table]` and their defaults: `depth_map` (256), `heightfield`
 //! (`plates`), `slope_bias` (1.0), `slab_thickness` (2.0), `normal_offset` (0.5),
-//! `closed_volumes` and `hidden_layer` (true), `grazing_cos` (0.2).
+//! `closed_volumes` and `hidden_layer` (true), `grazing_cos` (0.5).
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};

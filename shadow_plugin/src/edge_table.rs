@@ -28,7 +28,7 @@
 //! | `normal_offset` | float | 0.5 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
 //! | `hidden_layer` | bool | true | `plates`: a second depth layer, the first surface under each pixel's slab, read like the first (a ray is blocked by a slab of either) |
 //! | `closed_volumes` | bool | true | `plates`: a closed mesh is solid from its front face down to its back face (a second depth layer) |
-//! | `grazing_cos` | float | 0.2 | receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
+//! | `grazing_cos` | float | 0.5 | receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
 //! | `fit_shadowed` | bool | true | fit the map to the receivers whose shaft to the light is not clear; the others are traced (a clear shaft answers at once) |
 //! | `mirrored` | bool | true | build only the masks at sub-pixel offsets up to 1/2 and read the others as their mirror images (the same crossings, bit for bit; `paper`: false) |
 //!
@@ -100,8 +100,8 @@ impl EdgeTableParams {
     }
     /// The default, chosen by measurement (docs/edge_table_accuracy.md, ARCHITECTURE.md):
     /// 256^2 map, 4 x 4 x 4 masks, nearest mask, thin plates. Four depth levels instead of
-    /// two lowered the RMSE on six of seven scenes (up to 0.0301 to 0.0273) at about the
-    /// same cost; 8 x 8 x 4 grids and trilinear blending lower it less per unit of cost.
+    /// two lowered the RMSE on all seven scenes (up to 0.0161 to 0.0149) at about the same
+    /// cost; 8 x 8 x 4 grids and trilinear blending lower it less per unit of cost.
     pub const fn balanced() -> Self {
         Self {
             depth_map: DepthMapParams::new(256),
