@@ -100,8 +100,8 @@ impl EdgeTableParams {
     }
     /// The default, chosen by measurement (docs/edge_table_accuracy.md, ARCHITECTURE.md):
     /// 256^2 map, 4 x 4 x 4 masks, nearest mask, thin plates. Four depth levels instead of
-    /// two lowered the RMSE on all seven scenes (up to 0.0161 to 0.0149) at about the same
-    /// cost; 8 x 8 x 4 grids and trilinear blending lower it less per unit of cost.
+    /// two lowered the RMSE on all seven scenes (up to 0.0161 to 0.0149) at 0.9x-1.4x the
+    /// cost (one run); 8 x 8 x 4 grids and trilinear blending lower it less per unit of cost.
     pub const fn balanced() -> Self {
         Self {
             depth_map: DepthMapParams::new(256),
