@@ -2,8 +2,12 @@
 //! in one run: the table in the README and in the edge-table issue's closing note.
 //!
 //! ```sh
-//! cargo run --release --example shadow_accuracy -- [--width W] [--height H] [--samples N] SCENE.toml...
+//! cargo run --release --example shadow_accuracy -- [--width W] [--height H] [--samples N] \
+//!     [--map-sizes 256,512] SCENE.toml...
 //! ```
+//!
+//! `--map-sizes` lists the depth-map sizes of the nearest/trilinear x two-grid rows (the
+//! default's own map stays 256^2): what a finer map buys on a scene and what it costs.
 //!
 //! Per scene: `traced` (the truth) and every configuration at the same sample count, 1 spp,
 //! pixel centres. Errors are over pixels that see the light (unshadowed irradiance > 0):
@@ -81,6 +85,7 @@ fn run(
 fn main() {
     let mut args = std::env::args().skip(1);
     let (mut width, mut height, mut samples) = (320u32, 240u32, 1024u32);
+    let mut map_sizes = vec![256u32, 512];
     let mut scenes = Vec::new();
     while let Some(a) = args.next() {
         let mut num = |name: &str| -> u32 {
@@ -90,6 +95,12 @@ fn main() {
             "--width" => width = num("--width"),
             "--height" => height = num("--height"),
             "--samples" => samples = num("--samples"),
+            "--map-sizes" => {
+                map_sizes = args
+                    .next()
+                    .and_then(|v| v.split(',').map(|n| n.trim().parse().ok().filter(|&n| n >= 4)).collect())
+                    .unwrap_or_else(|| panic!("--map-sizes takes sizes >= 4, comma-separated"));
+            }
             _ => scenes.push(PathBuf::from(a)),
         }
     }
@@ -106,7 +117,7 @@ fn main() {
     };
     let d = EdgeTableParams::default();
     let mut configs: Vec<(String, EdgeTableParams)> = vec![("edge_table default".to_string(), d)];
-    for res in [256, 512] {
+    for &res in &map_sizes {
         for grid in [[4, 4, 4], [8, 8, 4]] {
             for blend in [Blend::Nearest, Blend::Trilinear] {
                 configs.push((
