@@ -21,7 +21,7 @@
 //!   the same rays marched one by one (`depth_march::march_bits`); the bench asserts that it
 //!   gives the query's bits.
 //! - `visibility/{all,lit,penumbra,umbra,fallback}/{256,1024}`: `EdgeTable::visibility` with
-//!   the default parameters (`balanced`: 256^2 map, 4 x 4 x 4 masks, nearest, plates),
+//!   the default parameters (`balanced`: 256^2 map, 2 x 2 x 8 masks, nearest, plates),
 //!   prepared on the default scene (`scenes/default.toml`, quads only) from the primary hits
 //!   of a 160 x 120 frame at pixel centres, over those 19,200 hits: all, and split by how
 //!   they are answered (fallback: by traced rays, all on the back wall; else by visibility

@@ -68,7 +68,7 @@ pub struct ShadowsConfig {
 pub enum Preset {
     /// The 2004 sketch: 256^2 map, 4 x 4 x 1 masks, nearest mask.
     Paper,
-    /// The default: 256^2 map, 4 x 4 x 4 masks, nearest mask, plates.
+    /// The default: 256^2 map, 2 x 2 x 8 masks, nearest mask, plates.
     Balanced,
     /// 512^2 map, 8 x 8 x 4 masks, trilinear, plates.
     Fine,

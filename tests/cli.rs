@@ -276,7 +276,7 @@ fn masks_over_the_memory_budget_are_refused() {
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{stderr}");
     assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
-    for needle in ["s.toml", "shadows", "grid [4, 4, 4]", "1024 samples"] {
+    for needle in ["s.toml", "shadows", "grid [2, 2, 8]", "1024 samples"] {
         assert!(stderr.contains(needle), "{stderr:?} does not name {needle:?}");
     }
     assert!(!dir.join("out").exists(), "something was written");

@@ -134,9 +134,12 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
         ShadowsConfig { method: MethodName::DepthMarch, samples: n, ..base.clone() },
     ));
     let maps: &[u32] = if quick { &[256] } else { &[256, 512] };
-    let grids: &[[u32; 3]] = if quick { &[[4, 4, 4]] } else { &[[4, 4, 4], [8, 8, 4]] };
+    // The default's grid, and in the full sweep the previous default's and a finer one.
+    let default_grid = ShadowsConfig::default().edge_table.params().grid;
+    let grids: Vec<[u32; 3]> =
+        if quick { vec![default_grid] } else { vec![default_grid, [4, 4, 4], [8, 8, 4]] };
     for &map in maps {
-        for &grid in grids {
+        for &grid in &grids {
             for blend in [BlendName::Nearest, BlendName::Trilinear] {
                 let mut c = ShadowsConfig { method: MethodName::EdgeTable, samples: n, ..base.clone() };
                 c.edge_table.depth_map = Some(map);
@@ -157,7 +160,10 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
     let counts: &[u32] = if quick { &[16] } else { &[64, 256] };
     for &m in counts {
         out.push(setting(
-            format!("edge_table 256 4x4x4 nearest N={m}"),
+            format!(
+                "edge_table 256 {}x{}x{} nearest N={m}",
+                default_grid[0], default_grid[1], default_grid[2]
+            ),
             ShadowsConfig { method: MethodName::EdgeTable, samples: m, ..base.clone() },
         ));
     }
