@@ -402,9 +402,8 @@ fn floor_lit_at_a_grazing_angle() {
     let (map_alone, m) = run_case(&dir, "grazing_floor", &scene);
     // Measured: RMSE 0.016, p99 0.066, max 0.094 with eight depth levels (0.016, 0.063, 0.12
     // with four; 0.020, 0.078, 0.19 with two; 0.065, 0.21, 0.30 before depth levels at
-    // receiver-depth quantiles): the
-    // penumbrae are banded and shifted along the light's direction, because the receivers
-    // span 3x in depth. No pixel is off by half.
+    // receiver-depth quantiles): the penumbrae are banded and shifted along the light's
+    // direction, because the receivers span 3x in depth. No pixel is off by half.
     assert!(m.rmse < 0.1, "{m:?}");
     assert!(m.p99 < 0.32, "{m:?}");
     assert!(m.max < 0.5, "{m:?}");
@@ -462,9 +461,9 @@ fn thick_closed_occluder_blocks_rays_passing_under_its_top() {
         edge_table: "",
     };
     let (_, m) = run_case(&dir, "thick_block", &scene);
-    // Measured: RMSE 0.0064, p99 0, max 0.46, no pixel off by 0.5. Reading the block as a thin top
-    // plate (`closed_volumes = false`) gave RMSE 0.095 and 3.4% of the pixels off by more
-    // than 0.5 (measured before the fitted map): the leak under the top surface.
+    // Measured: RMSE 0.0064, p99 0, max 0.46, no pixel off by 0.5. Reading the block as a
+    // thin top plate (`closed_volumes = false`) gave RMSE 0.095 and 3.4% of the pixels off
+    // by more than 0.5 (measured before the fitted map): the leak under the top surface.
     assert!(m.rmse < 0.05, "{m:?}");
     assert!(m.p99 < 0.2, "{m:?}");
     assert!(m.over_half < 0.003, "{m:?}");
@@ -539,9 +538,10 @@ fn contact_shadows_have_no_gap() {
         assert!(foot.len() >= 10, "{name}: only {} floor pixels at the foot", foot.len());
         assert!(traced_max < 0.1, "{name}: the foot is not in umbra in truth: {foot:?}");
         // Measured: the box's foot (23 pixels) and the bar's (50 pixels) read 0, as the
-        // truth does (before the fitted map: max 0.12 and 0.11, means 0.055 and 0.034). No gap (a gap would read ~1 there),
-        // but the umbra of a solid occluder leaks a little (rays that leave through the side
-        // of its depth-map image); `heightfield = "solid"` gives 0.
+        // truth does (before the fitted map: max 0.12 and 0.11, means 0.055 and 0.034). No
+        // gap (a gap would read ~1 there), but the umbra of a solid occluder can leak a
+        // little (rays that leave through the side of its depth-map image);
+        // `heightfield = "solid"` gives 0.
         assert!(edge_max < 0.25, "{name}: light gap at the foot: {foot:?}");
         assert!(edge_mean < 0.1, "{name}: light at the foot: {foot:?}");
     }

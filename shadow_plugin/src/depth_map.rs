@@ -86,12 +86,13 @@ pub struct DepthMapParams {
     /// Receivers the light grazes: where the cosine between a shading point's geometric
     /// normal and the direction to the light's centre is below this, traced rays answer
     /// (counted as `fallbacks_grazing`) and the point takes no part in fitting the map. The
-    /// map sees such a surface steeply or edge-on: a fold of cloth, the far side of a sphere near its
-    /// terminator or a wall beside a stem is a sliver of a pixel, so the occluders that
-    /// matter there (the facing fold, the surface's own curvature) are not in it. Only the samples
-    /// above the horizon are traced; such points are a small share of most frames, but up
-    /// to half of the lit points of a scene of curved surfaces lit from the side (toy-car),
-    /// where they are most of the shadow cost. 0 turns it off. Measured: ARCHITECTURE.md.
+    /// map sees such a surface steeply or edge-on: a fold of cloth, the far side of a sphere
+    /// near its terminator or a wall beside a stem is a sliver of a pixel, so the occluders
+    /// that matter there (the facing fold, the surface's own curvature) are not in it. Only
+    /// the samples above the horizon are traced; such points are a small share of most
+    /// frames, but up to half of the lit points of a scene of curved surfaces lit from the
+    /// side (toy-car), where they are most of the shadow cost. 0 turns it off. Measured:
+    /// ARCHITECTURE.md.
     pub grazing_cos: f32,
     /// Fit the map's frustum only to receivers something may shadow: those whose shaft to
     /// the light ([`renderer::Shaft`]) is not provably clear. A receiver outside the map is

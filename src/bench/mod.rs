@@ -134,10 +134,18 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
         ShadowsConfig { method: MethodName::DepthMarch, samples: n, ..base.clone() },
     ));
     let maps: &[u32] = if quick { &[256] } else { &[256, 512] };
-    // The default's grid, and in the full sweep the previous default's and a finer one.
+    // The default's grid, and in the full sweep the previous default's and a finer one
+    // (each once, whatever the default: a repeated setting would repeat a row's label).
     let default_grid = ShadowsConfig::default().edge_table.params().grid;
-    let grids: Vec<[u32; 3]> =
-        if quick { vec![default_grid] } else { vec![default_grid, [4, 4, 4], [8, 8, 4]] };
+    let mut grids = vec![default_grid];
+    if !quick {
+        for g in [[4, 4, 4], [8, 8, 4]] {
+            if !grids.contains(&g) {
+                grids.push(g);
+            }
+        }
+    }
+    let grid_name = |g: [u32; 3]| format!("{}x{}x{}", g[0], g[1], g[2]);
     for &map in maps {
         for &grid in &grids {
             for blend in [BlendName::Nearest, BlendName::Trilinear] {
@@ -149,8 +157,7 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
                     BlendName::Nearest => "nearest",
                     BlendName::Trilinear => "trilinear",
                 };
-                let label =
-                    format!("edge_table {map} {}x{}x{} {blend_name} N={n}", grid[0], grid[1], grid[2]);
+                let label = format!("edge_table {map} {} {blend_name} N={n}", grid_name(grid));
                 let is_default = c.edge_table.params() == ShadowsConfig::default().edge_table.params();
                 out.push(Setting { label, config: c, is_edge_table_default: is_default });
             }
@@ -160,10 +167,7 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
     let counts: &[u32] = if quick { &[16] } else { &[64, 256] };
     for &m in counts {
         out.push(setting(
-            format!(
-                "edge_table 256 {}x{}x{} nearest N={m}",
-                default_grid[0], default_grid[1], default_grid[2]
-            ),
+            format!("edge_table 256 {} nearest N={m}", grid_name(default_grid)),
             ShadowsConfig { method: MethodName::EdgeTable, samples: m, ..base.clone() },
         ));
     }
