@@ -58,6 +58,15 @@
 //! | large / plate | 45.3 us (53.8 us) | 90.3 us (103.9 us) |
 //! | large / plate_depth_march | 34.2 us (0.76x the query) | 181 us (2.0x) |
 //!
+//! Per-pixel in- and out-tables (one search each instead of one per side; ARCHITECTURE.md),
+//! measured a few minutes after the per-side version on the same VM, so compared through
+//! `plate_depth_march`, whose code did not change: the plate query went from 0.31x / 0.11x
+//! of the march (small, 256 / 1024 samples) to 0.22x / 0.08x, and from 0.46x / 0.28x (large)
+//! to 0.41x / 0.21x; mask bytes 33,400 / 187,892 / 294,268 / 818,040 to 54,328 / 428,376 /
+//! 364,048 / 1,409,256 (small / large, 256 / 1024 samples; each crossing is in two tables),
+//! build 215 us / 1.34 ms / 2.19 ms / 6.65 ms to 370 us / 2.12 ms / 2.26 ms / 9.30 ms. The
+//! tables above are older runs, with per-side tables.
+//!
 //! The first run's queries (before block culling): small / flat_unshrunk 279 / 277 ns, small
 //! / plate (118 / 130 lookups) 1.74 / 2.83 us, large / flat_unshrunk 4.9 / 6.5 us, large /
 //! plate (2,446 / 3,836 lookups) 34.5 / 80 us; plate_depth_march 3.4x / 15x the query in
@@ -165,7 +174,14 @@ fn bench_build(c: &mut Criterion) {
     for region in &REGIONS {
         for n in SAMPLE_COUNTS {
             let samples = light_samples(n);
-            let mask = Mask::build(OFFSET, FLOOR_Z, samples.clone(), region.pitch, h_stop(region));
+            let mask = Mask::build_for(
+                Heightfield::Plates,
+                OFFSET,
+                FLOOR_Z,
+                samples.clone(),
+                region.pitch,
+                h_stop(region),
+            );
             let (mean, max, pixels) = ray_stats(region, &samples);
             eprintln!(
                 "mask {}/{n}: pitch {:.5}, h_stop {:.4}: {} crossings ({mean:.1} per ray, max {max}), \
@@ -180,7 +196,8 @@ fn bench_build(c: &mut Criterion) {
                 b.iter_batched(
                     || samples.clone(),
                     |s| {
-                        Mask::build(
+                        Mask::build_for(
+                            Heightfield::Plates,
                             black_box(OFFSET),
                             black_box(FLOOR_Z),
                             s,
@@ -234,7 +251,7 @@ fn bench_query(c: &mut Criterion) {
     let hf = Heightfield::Plates;
     for region in &REGIONS {
         for n in SAMPLE_COUNTS {
-            let mask = Mask::build(OFFSET, FLOOR_Z, light_samples(n), region.pitch, h_stop(region));
+            let mask = Mask::build_for(hf, OFFSET, FLOOR_Z, light_samples(n), region.pitch, h_stop(region));
             let w = words(n);
             // (case, map, the stop height the query is asked for)
             let mut cases = Vec::new();

@@ -132,17 +132,14 @@ impl Default for EdgeTableParams {
     }
 }
 
-/// One pixel-frustum side of a mask's region, as the rays cross it: from pixel `from` into
-/// pixel `to` (indices into `Mask::cells`), crossings `start..start + len` of the mask's
-/// `heights` / `masks`, sorted by height.
+/// A table of crossings sorted by height with cumulative bitmasks: crossings
+/// `start..start + len` of the mask's `heights` / `masks`.
 #[derive(Debug, Clone, Copy)]
-struct SideTable {
-    from: u32,
-    to: u32,
+struct Table {
     start: u32,
     len: u32,
     /// Partial bitmasks (the sketch's "grouping nearby rays"): rays are sorted by angle, so
-    /// the rays crossing one side occupy a short run of words. Only words
+    /// the rays crossing into or out of one pixel occupy a short run of words. Only words
     /// `word0..word0 + span` are stored (at `masks[mask_start + k * span..]` for crossing
     /// k); bits outside them are 1. Measured: 4x fewer words than full masks on the default
     /// scene's masks.
@@ -153,17 +150,34 @@ struct SideTable {
     first: f32,
 }
 
+/// One pixel-frustum side of a mask's region, as the rays cross it from pixel `from` into
+/// pixel `to` (indices into `Mask::cells`): only the `shells` reading's walls need a side
+/// on its own.
+#[derive(Debug, Clone, Copy)]
+struct Side {
+    from: u32,
+    to: u32,
+    table: Table,
+}
+
 const NONE: u32 = u32::MAX;
 
-/// A pixel of a mask's region (relative to the model point's pixel) and its sides.
+/// A pixel of a mask's region (relative to the model point's pixel) and its tables.
 #[derive(Debug, Clone, Copy)]
 struct Cell {
     dx: i32,
     dy: i32,
-    /// At most two sides lead into a pixel (rays move monotonically in x and y); up to four
-    /// lead out (all four for the own pixel, three for the rest of its row and column).
-    in_edges: [u32; 2],
-    out_edges: [u32; 4],
+    /// The crossings into this pixel through either of its (at most two) in-sides, merged
+    /// into one table, and those out of it through its (up to four) out-sides: a ray's path
+    /// is monotone in x and y, so it enters a pixel at most once and leaves it at most once,
+    /// and the merged table's Below(q) is the AND of its sides'. Indices into
+    /// `Mask::tables`; NONE for none (the own pixel has no in-table, and its out-sides
+    /// are kept apart: `Mask::own_out`). Measured against one
+    /// table per side (same bits): half the searches, render + prepare 0.67x-0.91x on six of
+    /// the seven accuracy scenes (toy-car, mostly traced fallbacks, 1.03x), at 1.6x-2.05x
+    /// the mask memory (ARCHITECTURE.md).
+    in_table: u32,
+    out_table: u32,
     /// The lowest crossing into this pixel (+inf for the own pixel).
     in_first: f32,
     /// The highest crossing out of this pixel when every ray that enters it (starts in
@@ -206,24 +220,76 @@ pub struct Mask {
     blocks: Vec<Block>,
     /// Whether queries skip blocks by their highest floor (off only to measure it).
     cull_blocks: bool,
-    /// In order of `first`.
-    edges: Vec<SideTable>,
-    /// Crossing heights, grouped by edge, ascending within an edge.
+    /// The cells' in- and out-tables, in cell order (a cell's two tables are neighbours).
+    tables: Vec<Table>,
+    /// One table per side, in order of `first`, for the `shells` reading's walls; empty
+    /// when built without walls.
+    sides: Vec<Side>,
+    walls: bool,
+    /// Crossing heights, grouped by table, ascending within a table.
     heights: Vec<f32>,
-    /// Cumulative bitmasks, `words` per crossing: ray bits still set = not yet crossed at or
-    /// below that height.
+    /// Cumulative bitmasks, `span` words per crossing: ray bits still set = not yet
+    /// crossed at or below that height.
     masks: Vec<u64>,
     full: Vec<u64>,
+    crossings: usize,
+    /// The own pixel's crossings out, one table per side (NONE for a side no ray crosses):
+    /// its rays leave in every direction, so one merged table would store all `words` per
+    /// crossing (2.6x the whole mask's memory with 1024 samples in a small region).
+    own_out: [u32; 4],
     /// The normalised height up to which rays were marched: queries needing more fall back.
     pub h_max: f32,
 }
 
+/// Appends a table of `crossings` (height, ray), sorted here, to `heights` / `masks`.
+fn push_table(
+    crossings: &mut [(f32, u32)],
+    full: &[u64],
+    heights: &mut Vec<f32>,
+    masks: &mut Vec<u64>,
+) -> Table {
+    crossings.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let word_lo = crossings.iter().map(|c| c.1 as usize / 64).min().unwrap_or(0);
+    let word_hi = crossings.iter().map(|c| c.1 as usize / 64).max().unwrap_or(0);
+    let table = Table {
+        start: heights.len() as u32,
+        len: crossings.len() as u32,
+        word0: word_lo as u32,
+        span: (word_hi - word_lo + 1) as u32,
+        mask_start: masks.len() as u32,
+        first: crossings.first().map_or(f32::INFINITY, |c| c.0),
+    };
+    let mut current = [0u64; MAX_WORDS];
+    let current = &mut current[..=word_hi - word_lo];
+    current.copy_from_slice(&full[word_lo..=word_hi]);
+    for &(h, r) in crossings.iter() {
+        current[r as usize / 64 - word_lo] &= !(1u64 << (r % 64));
+        heights.push(h);
+        masks.extend_from_slice(current);
+    }
+    table
+}
+
 impl Mask {
     /// Builds a mask for a model point at `offset` inside its pixel and at depth `depth`,
-    /// marching every ray up to the normalised height `h_stop`.
-    pub fn build(offset: Vec2, depth: f32, mut samples: Vec<Vec2>, pitch: f32, h_stop: f32) -> Self {
-        // Rays in order of direction, so that the rays crossing any one side are neighbours
-        // in the bit order (see `SideTable::span`).
+    /// marching every ray up to the normalised height `h_stop`, for every reading of the
+    /// depth map (with the `shells` reading's per-side tables).
+    pub fn build(offset: Vec2, depth: f32, samples: Vec<Vec2>, pitch: f32, h_stop: f32) -> Self {
+        Self::build_for(Heightfield::Shells, offset, depth, samples, pitch, h_stop)
+    }
+
+    /// [`Mask::build`] for queries with `heightfield` only: the per-side tables, as large as
+    /// the rest of the mask, are kept for `shells` alone.
+    pub fn build_for(
+        heightfield: Heightfield,
+        offset: Vec2,
+        depth: f32,
+        mut samples: Vec<Vec2>,
+        pitch: f32,
+        h_stop: f32,
+    ) -> Self {
+        // Rays in order of direction, so that the rays crossing into or out of any one pixel
+        // are neighbours in the bit order (see `Table::span`).
         samples.sort_by(|a, b| {
             a.y.atan2(a.x).total_cmp(&b.y.atan2(b.x)).then(a.length_squared().total_cmp(&b.length_squared()))
         });
@@ -237,153 +303,169 @@ impl Mask {
                 true
             });
         }
+        // By side (pixel entered, axis), then height and ray.
         crossings.sort_unstable_by(|a, b| {
             (a.0[1], a.0[0], a.1).cmp(&(b.0[1], b.0[0], b.1)).then(a.2.total_cmp(&b.2)).then(a.3.cmp(&b.3))
         });
         let mut full = vec![0u64; words];
         bits::fill_first(&mut full, n);
-
+        // Rays move monotonically, so every ray crosses a side the same way: from the
+        // neighbour nearer the own pixel's row or column.
+        let from_of = |to: [i32; 2], axis: u8| {
+            let mut from = to;
+            let k = to[axis as usize];
+            from[axis as usize] = if k > 0 { k - 1 } else { k + 1 };
+            from
+        };
+        // The region's pixels, the own pixel first, and per pixel its crossings in and out.
         let mut cell_index: std::collections::HashMap<[i32; 2], u32> = std::collections::HashMap::new();
-        let mut cells = vec![Cell {
-            dx: 0,
-            dy: 0,
-            in_edges: [NONE; 2],
-            out_edges: [NONE; 4],
-            in_first: f32::INFINITY,
-            out_last: f32::INFINITY,
-        }];
+        let mut pixels: Vec<[i32; 2]> = vec![[0, 0]];
         cell_index.insert([0, 0], 0);
-        let mut cell_of = |c: [i32; 2], cells: &mut Vec<Cell>| -> u32 {
+        let mut cell_of = |c: [i32; 2]| -> u32 {
             *cell_index.entry(c).or_insert_with(|| {
-                cells.push(Cell {
-                    dx: c[0],
-                    dy: c[1],
-                    in_edges: [NONE; 2],
-                    out_edges: [NONE; 4],
-                    in_first: f32::INFINITY,
-                    out_last: f32::INFINITY,
-                });
-                cells.len() as u32 - 1
+                pixels.push(c);
+                pixels.len() as u32 - 1
             })
         };
-        let mut edges = Vec::new();
-        let mut heights = Vec::with_capacity(crossings.len());
-        let mut masks = Vec::with_capacity(crossings.len() * words);
-        let mut i = 0;
-        while i < crossings.len() {
-            let (to, axis) = (crossings[i].0, crossings[i].1);
-            // Rays move monotonically, so every ray crosses this side the same way: from
-            // the neighbour nearer the own pixel's row or column.
-            let k = to[axis as usize];
-            let mut from = to;
-            from[axis as usize] = if k > 0 { k - 1 } else { k + 1 };
-            let start = heights.len() as u32;
-            let group_end = crossings[i..]
-                .iter()
-                .position(|c| c.0 != to || c.1 != axis)
-                .map_or(crossings.len(), |k| i + k);
-            let word_lo = crossings[i..group_end].iter().map(|c| c.3 as usize / 64).min().unwrap_or(0);
-            let word_hi = crossings[i..group_end].iter().map(|c| c.3 as usize / 64).max().unwrap_or(0);
-            let mask_start = masks.len() as u32;
-            let mut current = full[word_lo..=word_hi].to_vec();
-            while i < group_end {
-                let (_, _, h, r) = crossings[i];
-                current[r as usize / 64 - word_lo] &= !(1u64 << (r % 64));
-                heights.push(h);
-                masks.extend_from_slice(&current);
-                i += 1;
-            }
-            let (to_i, from_i) = (cell_of(to, &mut cells), cell_of(from, &mut cells));
-            let first = heights[start as usize];
-            let e = edges.len() as u32;
-            edges.push(SideTable {
-                from: from_i,
-                to: to_i,
-                start,
-                len: heights.len() as u32 - start,
-                first,
-                word0: word_lo as u32,
-                span: (word_hi - word_lo + 1) as u32,
-                mask_start,
-            });
-            let slot = |list: &mut [u32]| {
-                let free =
-                    list.iter().position(|&x| x == NONE).expect("a pixel has at most 2 in- and 4 out-sides");
-                list[free] = e;
-            };
-            slot(&mut cells[to_i as usize].in_edges);
-            slot(&mut cells[from_i as usize].out_edges);
-            let c = &mut cells[to_i as usize];
-            c.in_first = c.in_first.min(first);
+        // (from, to) cells of each crossing's side (a side's crossings are neighbours).
+        let mut side_cells: Vec<(u32, u32)> = Vec::with_capacity(crossings.len());
+        for (k, &(to, axis, _, _)) in crossings.iter().enumerate() {
+            let same_side = k > 0 && crossings[k - 1].0 == to && crossings[k - 1].1 == axis;
+            let cells = if same_side { side_cells[k - 1] } else { (cell_of(from_of(to, axis)), cell_of(to)) };
+            side_cells.push(cells);
         }
-        // A ray's path is monotone in x and y, so it enters a pixel at most once and leaves it
-        // at most once: when as many crossings leave a pixel as enter it, every ray that
-        // enters also leaves, and the last of them to leave sets `out_last`.
-        let mut entering = vec![0u32; cells.len()];
-        let mut leaving = vec![0u32; cells.len()];
-        let mut last_out = vec![f32::NEG_INFINITY; cells.len()];
-        entering[0] = n as u32;
-        for e in &edges {
-            entering[e.to as usize] += e.len;
-            leaving[e.from as usize] += e.len;
-            let top = heights[(e.start + e.len - 1) as usize];
-            last_out[e.from as usize] = last_out[e.from as usize].max(top);
+        // Per pixel: how many crossings enter and leave it, the lowest entering and the
+        // highest leaving. A ray enters a pixel at most once and leaves it at most once:
+        // when as many crossings leave a pixel as enter it (n start in the own pixel), every
+        // ray that enters also leaves, and the last of them to leave sets `out_last`.
+        let count = pixels.len();
+        let (mut in_count, mut out_count) = (vec![0u32; count], vec![0u32; count]);
+        let (mut in_first, mut last_out) = (vec![f32::INFINITY; count], vec![f32::NEG_INFINITY; count]);
+        for (&(_, _, h, _), &(f, t)) in crossings.iter().zip(&side_cells) {
+            let (f, t) = (f as usize, t as usize);
+            in_count[t] += 1;
+            out_count[f] += 1;
+            in_first[t] = in_first[t].min(h);
+            last_out[f] = last_out[f].max(h);
         }
-        for (k, c) in cells.iter_mut().enumerate() {
-            c.out_last = if leaving[k] == entering[k] { last_out[k] } else { f32::INFINITY };
-        }
-        // Sort edges and cells by their lowest crossing, remapping indices.
-        let mut edge_order: Vec<u32> = (0..edges.len() as u32).collect();
-        edge_order
-            .sort_by(|&a, &b| edges[a as usize].first.total_cmp(&edges[b as usize].first).then(a.cmp(&b)));
-        let block_of = |c: &Cell| [c.dx.div_euclid(BLOCK), c.dy.div_euclid(BLOCK)];
-        let mut block_first: std::collections::HashMap<[i32; 2], f32> = std::collections::HashMap::new();
-        for c in &cells[1..] {
-            let f = block_first.entry(block_of(c)).or_insert(f32::INFINITY);
-            *f = f.min(c.in_first);
-        }
-        // Sort key per cell: (its block's lowest crossing, its block, its own lowest crossing).
-        let key: Vec<(f32, [i32; 2], f32)> = cells
-            .iter()
-            .map(|c| (block_first.get(&block_of(c)).copied().unwrap_or(0.0), block_of(c), c.in_first))
+        let out_last: Vec<f32> = (0..count)
+            .map(|k| {
+                let entering = if k == 0 { n as u32 } else { in_count[k] };
+                if out_count[k] == entering { last_out[k] } else { f32::INFINITY }
+            })
             .collect();
-        let mut cell_order: Vec<u32> = (1..cells.len() as u32).collect();
+        // Cells by block (blocks in order of their lowest crossing), then by their own
+        // lowest crossing.
+        let block_of = |c: [i32; 2]| [c[0].div_euclid(BLOCK), c[1].div_euclid(BLOCK)];
+        let mut block_first: std::collections::HashMap<[i32; 2], f32> = std::collections::HashMap::new();
+        for k in 1..count {
+            let f = block_first.entry(block_of(pixels[k])).or_insert(f32::INFINITY);
+            *f = f.min(in_first[k]);
+        }
+        let key: Vec<(f32, [i32; 2])> = pixels
+            .iter()
+            .map(|&c| (block_first.get(&block_of(c)).copied().unwrap_or(0.0), block_of(c)))
+            .collect();
+        let mut cell_order: Vec<usize> = (1..count).collect();
         cell_order.sort_by(|&a, &b| {
-            let (ka, kb) = (&key[a as usize], &key[b as usize]);
-            ka.0.total_cmp(&kb.0).then(ka.1.cmp(&kb.1)).then(ka.2.total_cmp(&kb.2)).then(a.cmp(&b))
+            let (ka, kb) = (key[a], key[b]);
+            ka.0.total_cmp(&kb.0)
+                .then(ka.1.cmp(&kb.1))
+                .then(in_first[a].total_cmp(&in_first[b]))
+                .then(a.cmp(&b))
         });
         cell_order.insert(0, 0);
-        let mut new_edge = vec![0u32; edges.len()];
-        for (new, &old) in edge_order.iter().enumerate() {
-            new_edge[old as usize] = new as u32;
-        }
-        let mut new_cell = vec![0u32; cells.len()];
+        let mut new_cell = vec![0u32; count];
         for (new, &old) in cell_order.iter().enumerate() {
-            new_cell[old as usize] = new as u32;
+            new_cell[old] = new as u32;
         }
-        let remap = |e: u32| if e == NONE { NONE } else { new_edge[e as usize] };
+        // Every crossing twice, bucketed by (cell in its new order, in / out): the cells'
+        // tables in the order queries visit them.
+        let mut bucket_start = vec![0usize; 2 * count + 1];
+        for (new, &old) in cell_order.iter().enumerate() {
+            bucket_start[2 * new + 1] = in_count[old] as usize;
+            bucket_start[2 * new + 2] = out_count[old] as usize;
+        }
+        for k in 1..bucket_start.len() {
+            bucket_start[k] += bucket_start[k - 1];
+        }
+        let mut fill = bucket_start.clone();
+        let mut bucketed = vec![(0.0f32, 0u32); 2 * crossings.len()];
+        for (&(_, _, h, r), &(f, t)) in crossings.iter().zip(&side_cells) {
+            for slot in [2 * new_cell[t as usize] as usize, 2 * new_cell[f as usize] as usize + 1] {
+                bucketed[fill[slot]] = (h, r);
+                fill[slot] += 1;
+            }
+        }
+        let (mut tables, mut heights, mut masks) =
+            (Vec::new(), Vec::with_capacity(bucketed.len()), Vec::new());
+        let mut table_of = |bucket: usize| {
+            let list = &mut bucketed[bucket_start[bucket]..bucket_start[bucket + 1]];
+            if list.is_empty() {
+                return NONE;
+            }
+            tables.push(push_table(list, &full, &mut heights, &mut masks));
+            tables.len() as u32 - 1
+        };
         let cells: Vec<Cell> = cell_order
             .iter()
-            .map(|&c| {
-                let c = cells[c as usize];
-                Cell { in_edges: c.in_edges.map(remap), out_edges: c.out_edges.map(remap), ..c }
+            .enumerate()
+            .map(|(new, &k)| Cell {
+                dx: pixels[k][0],
+                dy: pixels[k][1],
+                in_table: table_of(2 * new),
+                out_table: if k == 0 { NONE } else { table_of(2 * new + 1) },
+                in_first: in_first[k],
+                out_last: out_last[k],
             })
             .collect();
-        let edges: Vec<SideTable> = edge_order
-            .iter()
-            .map(|&e| {
-                let e = edges[e as usize];
-                SideTable { from: new_cell[e.from as usize], to: new_cell[e.to as usize], ..e }
-            })
-            .collect();
+        // The own pixel's out-sides, one table each (its crossings are runs of `crossings`).
+        let mut own_out = [NONE; 4];
+        let mut list = Vec::new();
+        for (side, slot) in
+            [([1, 0], 0u8), ([-1, 0], 0), ([0, 1], 1), ([0, -1], 1)].into_iter().zip(&mut own_out)
+        {
+            list.clear();
+            list.extend(crossings.iter().filter(|c| c.0 == side.0 && c.1 == side.1).map(|c| (c.2, c.3)));
+            if !list.is_empty() {
+                tables.push(push_table(&mut list, &full, &mut heights, &mut masks));
+                *slot = tables.len() as u32 - 1;
+            }
+        }
+        let mut sides = Vec::new();
+        let walls = heightfield == Heightfield::Shells;
+        if walls {
+            let mut i = 0;
+            let mut list = Vec::new();
+            while i < crossings.len() {
+                let (to, axis) = (crossings[i].0, crossings[i].1);
+                let end = crossings[i..]
+                    .iter()
+                    .position(|c| c.0 != to || c.1 != axis)
+                    .map_or(crossings.len(), |k| i + k);
+                list.clear();
+                list.extend(crossings[i..end].iter().map(|c| (c.2, c.3)));
+                let (f, t) = side_cells[i];
+                sides.push(Side {
+                    from: new_cell[f as usize],
+                    to: new_cell[t as usize],
+                    table: push_table(&mut list, &full, &mut heights, &mut masks),
+                });
+                i = end;
+            }
+            sides.sort_by(|a, b| a.table.first.total_cmp(&b.table.first));
+        }
         let mut blocks: Vec<Block> = Vec::new();
         for (k, c) in cells.iter().enumerate().skip(1) {
+            let b = block_of([c.dx, c.dy]);
             match blocks.last_mut() {
-                Some(b) if block_of(&cells[b.start as usize]) == block_of(c) => {
-                    b.lo = [b.lo[0].min(c.dx), b.lo[1].min(c.dy)];
-                    b.hi = [b.hi[0].max(c.dx), b.hi[1].max(c.dy)];
-                    b.first = b.first.min(c.in_first);
-                    b.end = k as u32 + 1;
+                Some(last)
+                    if block_of([cells[last.start as usize].dx, cells[last.start as usize].dy]) == b =>
+                {
+                    last.lo = [last.lo[0].min(c.dx), last.lo[1].min(c.dy)];
+                    last.hi = [last.hi[0].max(c.dx), last.hi[1].max(c.dy)];
+                    last.first = last.first.min(c.in_first);
+                    last.end = k as u32 + 1;
                 }
                 _ => blocks.push(Block {
                     lo: [c.dx, c.dy],
@@ -402,10 +484,14 @@ impl Mask {
             cells,
             blocks,
             cull_blocks: true,
-            edges,
+            tables,
+            sides,
+            walls,
             heights,
             masks,
             full,
+            crossings: crossings.len(),
+            own_out,
             h_max: h_stop,
         }
     }
@@ -420,30 +506,38 @@ impl Mask {
     pub fn bytes(&self) -> u64 {
         (self.cells.len() * std::mem::size_of::<Cell>()
             + self.blocks.len() * std::mem::size_of::<Block>()
-            + self.edges.len() * std::mem::size_of::<SideTable>()
+            + self.tables.len() * std::mem::size_of::<Table>()
+            + self.sides.len() * std::mem::size_of::<Side>()
             + self.heights.len() * 4
             + self.masks.len() * 8
             + self.samples.len() * 8) as u64
     }
 
+    /// Ray-side crossings marched (each is stored in its pixels' in- and out-tables, and in
+    /// its side's table with walls).
     pub fn crossings(&self) -> usize {
-        self.heights.len()
+        self.crossings
     }
 
-    /// Below(q) of an edge: the cumulative mask of its crossings at or below `q` (ties
+    /// Below(q) of a table: the cumulative mask of its crossings at or below `q` (ties
     /// count as below), as (first word, words); bits outside are 1. None (all 1) when no
     /// crossing is at or below `q`.
     #[inline]
-    fn below(&self, e: &SideTable, q: f32) -> Option<(usize, &[u64])> {
-        if q < e.first {
+    fn below(&self, t: &Table, q: f32) -> Option<(usize, &[u64])> {
+        if q < t.first {
             return None;
         }
-        let range = e.start as usize..(e.start + e.len) as usize;
+        let range = t.start as usize..(t.start + t.len) as usize;
         let k = self.heights[range].partition_point(|&h| h <= q) - 1;
-        let span = e.span as usize;
-        Some((e.word0 as usize, &self.masks[e.mask_start as usize + k * span..][..span]))
+        let span = t.span as usize;
+        Some((t.word0 as usize, &self.masks[t.mask_start as usize + k * span..][..span]))
     }
 
+    /// Below(q) of table `t` of `Mask::tables` (None for NONE).
+    #[inline]
+    fn below_table(&self, t: u32, q: f32) -> Option<(usize, &[u64])> {
+        if t == NONE { None } else { self.below(&self.tables[t as usize], q) }
+    }
     /// Unblocked-ray bits for a point at depth `pz` whose mask-relative pixel is `base`,
     /// considering crossings below the normalised height `h_stop` (at most
     /// [`Mask::h_max`]): bit r is 1 iff ray r is not blocked by the heightfield read as
@@ -509,7 +603,7 @@ impl Mask {
         // (floors in the region are at most `h_stop`), e.g. at -0.0 from a point on a pixel
         // side when `h_stop` is 0, and counting them changed the answer at such ties.
         let h_lim = h_stop.next_down();
-        let below = |e: &SideTable, q: f32| self.below(e, q.min(h_lim));
+        let below = |t: u32, q: f32| self.below_table(t, q.min(h_lim));
         // out &= Below (a partial mask); then whether any bit is left.
         let and = |out: &mut [u64], below: Option<(usize, &[u64])>| -> bool {
             if let Some((w0, m)) = below {
@@ -522,24 +616,30 @@ impl Mask {
         if h_own < 0.0 && heightfield != Heightfield::Plates {
             // P starts above its floor: both readings block a ray exactly where it first
             // enters a pixel at or below that pixel's floor (note 5.4-5.5), so AND every
-            // side's Below(floor of the pixel it leads into): one search per side.
-            for e in &self.edges {
-                if e.first >= h_stop {
-                    break; // this side and every later one is crossed only above the stop
+            // pixel's Below(its floor) of its in-table: one search per pixel.
+            for b in &self.blocks {
+                if b.first >= h_stop {
+                    break; // this block and every later one is entered only above the stop
                 }
-                let h = floor(&self.cells[e.to as usize]);
-                if h < e.first {
-                    continue;
-                }
-                // Every ray crossing this side already blocked: nothing to learn here.
-                // (Measured: skips about half the searches in penumbrae.)
-                if out[e.word0 as usize..][..e.span as usize].iter().all(|&w| w == 0) {
-                    continue;
-                }
-                stats.lookups += 1;
-                if !and(out, below(e, h)) {
-                    stats.early_out = true;
-                    break;
+                for c in &self.cells[b.start as usize..b.end as usize] {
+                    if c.in_first >= h_stop {
+                        break;
+                    }
+                    let h = floor(c);
+                    if h < c.in_first {
+                        continue;
+                    }
+                    let t = &self.tables[c.in_table as usize];
+                    // Every ray entering this pixel already blocked: nothing to learn here.
+                    // (Measured: skips about half the searches in penumbrae.)
+                    if out[t.word0 as usize..][..t.span as usize].iter().all(|&w| w == 0) {
+                        continue;
+                    }
+                    stats.lookups += 1;
+                    if !and(out, below(c.in_table, h)) {
+                        stats.early_out = true;
+                        return stats;
+                    }
                 }
             }
             return stats;
@@ -551,13 +651,15 @@ impl Mask {
                 stats.early_out = true;
             }
             Heightfield::Shells | Heightfield::Plates => {
+                assert!(
+                    self.walls || heightfield == Heightfield::Plates,
+                    "a mask built without walls read as shells"
+                );
                 // Floors and front-facing walls (INTERSECTFLOOR / INTERSECTWALL): a ray is
                 // blocked where it rises through a floor it is under, or passes from above
                 // one floor to under a higher one.
-                let mut in_mask = [0u64; MAX_WORDS];
-                let mut out_mask = [0u64; MAX_WORDS];
                 // One pixel of one layer: false once every ray is blocked.
-                let mut visit = |layer: usize, k: usize, out: &mut [u64], stats: &mut QueryStats| -> bool {
+                let visit = |layer: usize, k: usize, out: &mut [u64], stats: &mut QueryStats| -> bool {
                     let c = &self.cells[k];
                     let h = layer_floor(layer, c);
                     if k > 0 && h < c.in_first {
@@ -572,38 +674,50 @@ impl Mask {
                     if h_exit.min(h_lim) >= c.out_last {
                         return true;
                     }
-                    // In: entered at or below the floor (the own pixel: P itself, at 0).
-                    let in_m = &mut in_mask[..words];
                     if k == 0 {
                         if h < 0.0 {
                             return true; // P above its own floor: that floor blocks nothing
                         }
-                        in_m.iter_mut().for_each(|w| *w = 0);
-                    } else {
-                        in_m.copy_from_slice(&self.full);
-                        for &e in c.in_edges.iter().filter(|&&e| e != NONE) {
-                            and(in_m, below(&self.edges[e as usize], h));
+                        // Every ray starts under the own floor (P is at 0): blocked unless it
+                        // leaves under the slab's bottom, through one of the four sides.
+                        let mut not_left = [0u64; MAX_WORDS];
+                        let not_left = &mut not_left[..words];
+                        not_left.copy_from_slice(&self.full);
+                        for &t in self.own_out.iter().filter(|&&t| t != NONE) {
                             stats.lookups += 1;
+                            and(not_left, below(t, h_exit));
                         }
-                        // Only rays that entered under this floor and are not blocked yet can
-                        // change the result: skip the out-sides when there are none.
-                        if in_m.iter().zip(out.iter()).all(|(i, o)| !*i & *o == 0) {
-                            return true;
-                        }
+                        out.iter_mut().zip(not_left.iter()).for_each(|(o, x)| *o &= !*x);
+                        return out.iter().any(|&w| w != 0);
                     }
-                    // Out: left at or below the floor (plates: the slab's bottom).
-                    let out_m = &mut out_mask[..words];
-                    out_m.copy_from_slice(&self.full);
-                    for &e in c.out_edges.iter().filter(|&&e| e != NONE) {
-                        and(out_m, below(&self.edges[e as usize], h_exit));
+                    // In: the rays that entered at or below the floor (bits cleared), as a
+                    // partial mask from word `w0`.
+                    stats.lookups += 1;
+                    let Some((w0, entered)) = below(c.in_table, h) else {
+                        return true; // none entered under the floor below the stop
+                    };
+                    // Only rays that entered under this floor and are not blocked yet can
+                    // change the result: skip the out-table when there are none. Bits outside
+                    // `entered`'s words are rays that did not enter under the floor.
+                    if entered.iter().zip(&out[w0..]).all(|(i, o)| !*i & *o == 0) {
+                        return true;
+                    }
+                    // Out: left at or below the floor (plates: the slab's bottom); a ray that
+                    // entered under it and did not leave under the slab's bottom is blocked.
+                    let left = if c.out_table == NONE {
+                        None
+                    } else {
                         stats.lookups += 1;
+                        below(c.out_table, h_exit)
+                    };
+                    for (w, (o, i)) in out[w0..].iter_mut().zip(entered).enumerate() {
+                        let not_left = match left {
+                            Some((x0, x)) if w0 + w >= x0 && w0 + w - x0 < x.len() => x[w0 + w - x0],
+                            _ => u64::MAX,
+                        };
+                        *o &= *i | !not_left;
                     }
-                    let mut any = 0u64;
-                    for ((o, i), x) in out.iter_mut().zip(in_m.iter()).zip(out_m.iter()) {
-                        *o &= *i | !*x;
-                        any |= *o;
-                    }
-                    any != 0
+                    out.iter().any(|&w| w != 0)
                 };
                 // Each pixel's verdict is ANDed in independently of the others, so the order
                 // of pixels and layers is free: the own pixel, then block by block.
@@ -638,17 +752,18 @@ impl Mask {
                         }
                     }
                 }
-                for e in &self.edges {
+                for side in &self.sides {
+                    let e = &side.table;
                     if e.first >= h_stop || heightfield == Heightfield::Plates {
                         break;
                     }
-                    let h_to = floor(&self.cells[e.to as usize]);
-                    let h_from = floor(&self.cells[e.from as usize]);
+                    let h_to = floor(&self.cells[side.to as usize]);
+                    let h_from = floor(&self.cells[side.from as usize]);
                     if h_from < h_to && h_to >= e.first {
                         // Wall (h_from, h_to]: (NOT Below(h_from)) OR Below(h_to); outside
                         // the side's words both are 1 and the wall is a no-op.
-                        let Some((w0, hi)) = below(e, h_to) else { continue };
-                        let lo = below(e, h_from);
+                        let Some((w0, hi)) = self.below(e, h_to.min(h_lim)) else { continue };
+                        let lo = self.below(e, h_from.min(h_lim));
                         for (k, (o, u)) in out[w0..].iter_mut().zip(hi).enumerate() {
                             let l = lo.map_or(u64::MAX, |(_, l)| l[k]);
                             *o &= !l | *u;
@@ -939,8 +1054,8 @@ impl LightShadowing for EdgeTable {
                     &mut Rng::new(stream_seed(&[seed, light_index, m as u64, 3])),
                 );
                 let depth = levels[k as usize];
-                let mask =
-                    Mask::build(offset, depth, s, pitch, stop_height(z_min, serve_hi[k as usize]).min(h_cap));
+                let h_stop = stop_height(z_min, serve_hi[k as usize]).min(h_cap);
+                let mask = Mask::build_for(self.params.heightfield, offset, depth, s, pitch, h_stop);
                 built.fetch_add(mask.bytes(), Ordering::Relaxed);
                 Some(mask)
             })
