@@ -220,25 +220,25 @@ pub struct Mask {
     blocks: Vec<Block>,
     /// Whether queries skip blocks by their highest floor (off only to measure it).
     cull_blocks: bool,
-    /// The cells' in- and out-tables, in cell order (a cell's two tables are neighbours),
-    /// then the own pixel's out-tables (`own_out`), then with walls the sides' tables.
+    /// The cells' in- and out-tables, in cell order (a cell's two tables are neighbours).
     tables: Vec<Table>,
     /// One table per side, in order of `first`, for the `shells` reading's walls; empty
     /// when built without walls.
     sides: Vec<Side>,
     walls: bool,
-    /// Crossing heights, grouped by table, ascending within a table.
+    /// Crossing heights, grouped by table (the cells', then the sides'), ascending within
+    /// a table.
     heights: Vec<f32>,
     /// Cumulative bitmasks, `span` words per crossing: ray bits still set = not yet
     /// crossed at or below that height.
     masks: Vec<u64>,
     full: Vec<u64>,
     crossings: usize,
-    /// The own pixel's crossings out, one table per side (NONE for a side no ray crosses):
-    /// its rays leave in every direction, so one merged table would store all `words` per
-    /// crossing (with 1024 samples in `benches/edge_table.rs`'s small region, the mask
-    /// takes 492 KB with it and 428 KB without).
-    own_out: [u32; 4],
+    /// The own pixel's crossings out, one table per side it has (shared with `sides` when
+    /// built with walls): its rays leave in every direction, so one merged table would
+    /// store all `words` per crossing (with 1024 samples in `benches/edge_table.rs`'s small
+    /// region, the mask takes 492 KB with it and 428 KB without).
+    own_out: [Option<Table>; 4],
     /// The normalised height up to which rays were marched: queries needing more fall back.
     pub h_max: f32,
 }
@@ -384,17 +384,19 @@ impl Mask {
         // Every crossing twice, bucketed by (cell in its new order, in / out): the cells'
         // tables in the order queries visit them.
         let mut bucket_start = vec![0usize; 2 * count + 1];
+        // The own pixel's crossings out are kept per side (`own_out`), not bucketed.
         for (new, &old) in cell_order.iter().enumerate() {
             bucket_start[2 * new + 1] = in_count[old] as usize;
-            bucket_start[2 * new + 2] = out_count[old] as usize;
+            bucket_start[2 * new + 2] = if old == 0 { 0 } else { out_count[old] as usize };
         }
         for k in 1..bucket_start.len() {
             bucket_start[k] += bucket_start[k - 1];
         }
         let mut fill = bucket_start.clone();
-        let mut bucketed = vec![(0.0f32, 0u32); 2 * crossings.len()];
+        let mut bucketed = vec![(0.0f32, 0u32); bucket_start[2 * count]];
         for (&(_, _, h, r), &(f, t)) in crossings.iter().zip(&side_cells) {
-            for slot in [2 * new_cell[t as usize] as usize, 2 * new_cell[f as usize] as usize + 1] {
+            let out_slot = (f != 0).then(|| 2 * new_cell[f as usize] as usize + 1);
+            for slot in std::iter::once(2 * new_cell[t as usize] as usize).chain(out_slot) {
                 bucketed[fill[slot]] = (h, r);
                 fill[slot] += 1;
             }
@@ -416,47 +418,39 @@ impl Mask {
                 dx: pixels[k][0],
                 dy: pixels[k][1],
                 in_table: table_of(2 * new),
-                out_table: if k == 0 { NONE } else { table_of(2 * new + 1) },
+                out_table: table_of(2 * new + 1),
                 in_first: in_first[k],
                 out_last: out_last[k],
             })
             .collect();
-        // The own pixel's out-sides, one table each (its crossings are runs of `crossings`).
-        let mut own_out = [NONE; 4];
-        let mut list = Vec::new();
-        for (side, slot) in
-            [([1, 0], 0u8), ([-1, 0], 0), ([0, 1], 1), ([0, -1], 1)].into_iter().zip(&mut own_out)
-        {
-            list.clear();
-            list.extend(crossings.iter().filter(|c| c.0 == side.0 && c.1 == side.1).map(|c| (c.2, c.3)));
-            if !list.is_empty() {
-                tables.push(push_table(&mut list, &full, &mut heights, &mut masks));
-                *slot = tables.len() as u32 - 1;
-            }
-        }
-        let mut sides = Vec::new();
+        // Per side (a run of `crossings`): a table for the own pixel's out-sides, and with
+        // walls for every side.
         let walls = heightfield == Heightfield::Shells;
-        if walls {
-            let mut i = 0;
-            let mut list = Vec::new();
-            while i < crossings.len() {
-                let (to, axis) = (crossings[i].0, crossings[i].1);
-                let end = crossings[i..]
-                    .iter()
-                    .position(|c| c.0 != to || c.1 != axis)
-                    .map_or(crossings.len(), |k| i + k);
+        let (mut own_out, mut sides) = ([None; 4], Vec::new());
+        let mut list = Vec::new();
+        let mut i = 0;
+        while i < crossings.len() {
+            let (to, axis) = (crossings[i].0, crossings[i].1);
+            let end = crossings[i..]
+                .iter()
+                .position(|c| c.0 != to || c.1 != axis)
+                .map_or(crossings.len(), |k| i + k);
+            let (f, t) = side_cells[i];
+            if walls || f == 0 {
                 list.clear();
                 list.extend(crossings[i..end].iter().map(|c| (c.2, c.3)));
-                let (f, t) = side_cells[i];
-                sides.push(Side {
-                    from: new_cell[f as usize],
-                    to: new_cell[t as usize],
-                    table: push_table(&mut list, &full, &mut heights, &mut masks),
-                });
-                i = end;
+                let table = push_table(&mut list, &full, &mut heights, &mut masks);
+                if f == 0 {
+                    let free = own_out.iter().position(Option::is_none).expect("a pixel has at most 4 sides");
+                    own_out[free] = Some(table);
+                }
+                if walls {
+                    sides.push(Side { from: new_cell[f as usize], to: new_cell[t as usize], table });
+                }
             }
-            sides.sort_by(|a, b| a.table.first.total_cmp(&b.table.first));
+            i = end;
         }
+        sides.sort_by(|a, b| a.table.first.total_cmp(&b.table.first));
         let mut blocks: Vec<Block> = Vec::new();
         for (k, c) in cells.iter().enumerate().skip(1) {
             let b = block_of([c.dx, c.dy]);
@@ -508,7 +502,7 @@ impl Mask {
     pub fn bytes(&self) -> u64 {
         (self.cells.len() * std::mem::size_of::<Cell>()
             + self.blocks.len() * std::mem::size_of::<Block>()
-            + self.tables.len() * std::mem::size_of::<Table>()
+            + (self.tables.len() + self.own_out.iter().flatten().count()) * std::mem::size_of::<Table>()
             + self.sides.len() * std::mem::size_of::<Side>()
             + self.heights.len() * 4
             + self.masks.len() * 8
@@ -686,9 +680,9 @@ impl Mask {
                         let mut not_left = [0u64; MAX_WORDS];
                         let not_left = &mut not_left[..words];
                         not_left.copy_from_slice(&self.full);
-                        for &t in self.own_out.iter().filter(|&&t| t != NONE) {
+                        for t in self.own_out.iter().flatten() {
                             stats.lookups += 1;
-                            and(not_left, below(t, h_exit));
+                            and(not_left, self.below(t, h_exit.min(h_lim)));
                         }
                         out.iter_mut().zip(not_left.iter()).for_each(|(o, x)| *o &= !*x);
                         return out.iter().any(|&w| w != 0);
