@@ -1,0 +1,119 @@
+//! The HTML report, `index.html`: per scene the plot, the table and the images side by side.
+
+use super::report::{SceneResult, speedup_text};
+use std::fmt::Write as _;
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+/// The HTML report: per scene the plot, the table and the images side by side.
+pub(super) fn html(threads: usize, repeats: u32, results: &[SceneResult]) -> String {
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>penumbra bench</title>\n<style>\
+body{{font-family:sans-serif;margin:2em;max-width:1400px}}table{{border-collapse:collapse;font-size:13px}}\
+td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}td:first-child,th:first-child{{text-align:left}}\
+tr.default{{background:#fde}}figure{{display:inline-block;margin:4px;vertical-align:top}}\
+figcaption{{font-size:12px;max-width:330px}}img.plot{{max-width:900px;width:100%}}</style></head><body>\n\
+<h1>penumbra bench</h1>\n<p>{} scene(s), {} thread(s), median of {} run(s) per setting. Shadow cost = \
+shadow_prepare + render time above <code>none</code>. Errors are against <code>traced</code> at the truth's \
+sample count, over the pixels each light reaches. Data: <a href=\"results.csv\">results.csv</a>, \
+<a href=\"results.json\">results.json</a>. Heat maps: |visibility error|, black 0 to white &ge; 0.5.</p>\n",
+        results.len(),
+        threads,
+        repeats
+    );
+    for r in results {
+        scene_head(&mut h, r);
+        table(&mut h, r);
+        images(&mut h, r);
+    }
+    h.push_str("</body></html>\n");
+    h
+}
+
+/// A scene's heading: its file, size, truth and equal-error speedup, and its plot.
+fn scene_head(h: &mut String, r: &SceneResult) {
+    let _ = write!(
+        h,
+        "<h2>{}</h2>\n<p>{} ({} triangles), {}x{}, truth: traced N={}{}. Equal-error speedup of \
+edge_table (default, highlighted): {}.</p>\n<p><img class=\"plot\" src=\"{}/plot.png\" alt=\"{} plot\"><br>\
+<small>x: shadow cost (s), y: visibility RMSE, both log; a line per method; the Pareto front ringed \
+(<a href=\"{}/plot.svg\">SVG</a>).</small></p>\n",
+        esc(&r.stem),
+        esc(&r.path),
+        r.triangles,
+        r.width,
+        r.height,
+        r.truth_samples,
+        if r.truth_cached { ", from the cache" } else { "" },
+        esc(&speedup_text(&r.speedup)),
+        esc(&r.stem),
+        esc(&r.stem),
+        esc(&r.stem)
+    );
+}
+
+/// A scene's table, a line per setting (`edge_table`'s default highlighted), and the
+/// settings skipped.
+fn table(h: &mut String, r: &SceneResult) {
+    h.push_str(
+        "<table><tr><th>setting</th><th>shadow cost (s)</th><th>prepare (s)</th><th>render (s)</th>\
+<th>RMSE</th><th>penumbra RMSE</th><th>p99</th><th>max</th><th>leak</th><th>false shadow</th>\
+<th>image rel. RMSE</th><th>peak RSS (MiB)</th><th>method (MiB)</th></tr>\n",
+    );
+    for row in &r.rows {
+        let e = &row.errors;
+        let _ = writeln!(
+            h,
+            "<tr{}><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.4}</td><td>{:.4}</td>\
+<td>{:.3}</td><td>{:.3}</td><td>{:.2}%</td><td>{:.3}%</td><td>{:.4}</td><td>{:.0}</td><td>{:.1}</td></tr>",
+            if row.edge_table_default { " class=\"default\"" } else { "" },
+            esc(&row.setting),
+            row.shadow_cost_s,
+            row.shadow_prepare_s,
+            row.render_s,
+            e.rmse,
+            e.penumbra_rmse,
+            e.p99,
+            e.max,
+            100.0 * e.leak_rate,
+            100.0 * e.false_shadow_rate,
+            e.image_relative_rmse,
+            row.peak_rss_mib,
+            row.method_mib
+        );
+    }
+    h.push_str("</table>\n");
+    if !r.skipped.is_empty() {
+        let _ = writeln!(h, "<p>Skipped: {}.</p>", esc(&r.skipped.join("; ")));
+    }
+}
+
+/// A scene's images: the truth, and each family's best setting's with its error heat map.
+fn images(h: &mut String, r: &SceneResult) {
+    h.push_str("<div>\n");
+    let _ = writeln!(
+        h,
+        "<figure><img src=\"{0}/truth.png\" alt=\"truth\"><figcaption>truth (traced N={1})</figcaption></figure>",
+        esc(&r.stem),
+        r.truth_samples
+    );
+    for (fam, label, img, heat) in &r.best {
+        let _ = writeln!(
+            h,
+            "<figure><img src=\"{}\" alt=\"{}\"><figcaption>{} (best {})</figcaption></figure>\
+<figure><img src=\"{}\" alt=\"{} error\"><figcaption>{}: |error|</figcaption></figure>",
+            esc(img),
+            esc(fam),
+            esc(label),
+            esc(fam),
+            esc(heat),
+            esc(fam),
+            esc(label)
+        );
+    }
+    h.push_str("</div>\n");
+}
