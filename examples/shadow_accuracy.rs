@@ -172,7 +172,7 @@ fn main() {
     for path in &scenes {
         let file = SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));
         let scene = Scene::load(&file, path).unwrap_or_else(|e| panic!("{e}"));
-        let none = run(&scene, &|| Box::new(Unshadowed), &settings);
+        let none = run(&scene, &|| Box::new(Unshadowed {}), &settings);
         let base = none.render;
         let lit = &none.visibility[0];
         // The truth: every ray traced. `traced` as it ships culls shafts: the same bits

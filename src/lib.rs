@@ -6,11 +6,12 @@ pub mod config;
 pub mod methods;
 pub mod report;
 
-use crate::config::{MethodName, ShadowsConfig};
+use crate::config::ShadowsConfig;
 use crate::report::{RunReport, Timings};
 use renderer::output::StagedFiles;
-use renderer::{RenderSettings, Scene, SceneError, SceneFile, render};
+use renderer::{RenderSettings, Scene, SceneError, SceneFile, ShadowMethod, render};
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// The default scene, embedded so that `penumbra` with no arguments works anywhere.
@@ -27,13 +28,15 @@ pub struct RenderArgs {
     /// Scene file (TOML). Without one, the embedded default scene.
     pub scene: Option<PathBuf>,
     /// Shadow method; overrides `[shadows].method`.
-    #[arg(long, value_enum)]
-    pub shadows: Option<MethodName>,
+    #[arg(long, value_parser = methods::value_parser())]
+    pub shadows: Option<String>,
     /// Light samples per shading point; overrides `[shadows].samples`.
     #[arg(long)]
     pub samples: Option<u32>,
+    /// Image width in pixels; overrides `[image].width`.
     #[arg(long)]
     pub width: Option<u32>,
+    /// Image height in pixels; overrides `[image].height`.
     #[arg(long)]
     pub height: Option<u32>,
     /// Primary samples per pixel (1 = the pixel centre).
@@ -54,6 +57,10 @@ pub struct RenderArgs {
     /// No progress bar and no summary on stdout.
     #[arg(long)]
     pub quiet: bool,
+    /// Code only (no flag): render with these method settings instead of the scene's, for
+    /// studies that switch what a scene file cannot (a plugin's code-only fields).
+    #[arg(skip)]
+    pub method: Option<Arc<dyn ShadowMethod>>,
 }
 
 /// What a finished render reports back.
@@ -79,11 +86,14 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
         }
     };
     let mut shadows = ShadowsConfig::from_table(&file.shadows, &scene_path)?;
-    if let Some(m) = args.shadows {
-        shadows.method = m;
+    if let Some(m) = &args.shadows {
+        shadows.choose(m, &scene_path, "--shadows")?;
     }
     if let Some(n) = args.samples {
         shadows.samples = n;
+    }
+    if let Some(m) = &args.method {
+        shadows.set_method(m.clone());
     }
     // Again after the overrides: `--shadows edge_table` may meet a sample count only `traced`
     // accepts.
@@ -128,7 +138,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
 
     pool.install(|| {
         let scene = Scene::load(&file, &scene_path)?;
-        let mut methods: Vec<_> = scene.lights.iter().map(|_| methods::build_shadowing(&shadows)).collect();
+        let mut methods: Vec<_> = scene.lights.iter().map(|_| shadows.build()).collect();
         let settings = RenderSettings { width, height, spp, seed: args.seed };
         let bar = progress_bar(height as u64, args.quiet);
         let frame = render(&scene, &mut methods, &settings, &|n| bar.inc(n))
@@ -159,7 +169,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
         outputs.push(json_path.clone());
         let report = RunReport {
             scene: scene_path.display().to_string(),
-            method: shadows.method.as_str().to_string(),
+            method: shadows.name().to_string(),
             samples: shadows.samples,
             width,
             height,

@@ -11,6 +11,7 @@ pub mod error;
 pub mod gltf_load;
 pub mod light;
 pub mod material;
+pub mod method;
 pub mod output;
 pub mod render;
 pub mod sampling;
@@ -22,9 +23,11 @@ pub use camera::Camera;
 pub use config::SceneFile;
 pub use error::SceneError;
 pub use light::RectLight;
+pub use method::{KeyError, MethodParams, ShadowMethod, parse_method};
 pub use render::{Frame, RenderSettings, render};
 pub use scene::{RayEpsilon, Scene, SurfaceHit};
 pub use shadowing::{
-    LightShadowing, PrepareContext, ShadowError, ShadowQuery, Traced, TracedParams, Unshadowed, VisiblePoint,
+    LightShadowing, MAX_TRACED_SAMPLES, PrepareContext, ShadowError, ShadowQuery, Traced, TracedParams,
+    Unshadowed, VisiblePoint,
 };
 pub use shaft::Shaft;

@@ -7,10 +7,12 @@
 //! through `&self`, without allocating, from any thread.
 
 use crate::light::RectLight;
+use crate::method::{KeyError, MethodParams, ShadowMethod};
 use crate::sampling::{Rng, strata};
 use crate::scene::Scene;
 use crate::shaft::{self, Shaft};
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// What a method may look at when it prepares for one light.
@@ -78,13 +80,37 @@ pub trait LightShadowing: Send + Sync {
 }
 
 /// No shadows: V = 1 everywhere. The cost floor every method's shadow cost is measured
-/// against.
-#[derive(Debug, Default)]
-pub struct Unshadowed;
+/// against. `[shadows.none]` takes no keys.
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Unshadowed {}
+
+impl Unshadowed {
+    pub const NAME: &'static str = "none";
+}
+
+impl ShadowMethod for Unshadowed {
+    fn name(&self) -> &'static str {
+        Self::NAME
+    }
+    fn max_samples(&self) -> u32 {
+        MAX_TRACED_SAMPLES
+    }
+    fn build(&self, _samples: u32) -> Box<dyn LightShadowing> {
+        Box::new(*self)
+    }
+}
+
+impl MethodParams for Unshadowed {
+    const NAME: &'static str = Self::NAME;
+    fn validate(&self) -> Result<(), KeyError> {
+        Ok(())
+    }
+}
 
 impl LightShadowing for Unshadowed {
     fn name(&self) -> &'static str {
-        "none"
+        Self::NAME
     }
     fn prepare(&mut self, _: &PrepareContext) -> Result<(), ShadowError> {
         Ok(())
@@ -94,22 +120,64 @@ impl LightShadowing for Unshadowed {
     }
 }
 
-/// Parameters of the traced method.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// Most light samples per shading point `traced` takes.
+pub const MAX_TRACED_SAMPLES: u32 = 65536;
+
+/// Parameters of the traced method. `[shadows.traced]` takes no keys: the sample count is
+/// `[shadows].samples`, and shaft culling is a code-only switch (the same bits either way).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TracedParams {
     /// Light samples per shading point: a stratified nx x ny grid (nx * ny = samples,
     /// see [`strata`]), jittered per point. 1024 matches the edge-table masks.
+    #[serde(skip)]
     pub samples: u32,
     /// Test each point's shaft to the light first ([`crate::shaft`]): where no triangle can
     /// meet it, the rays it covers are counted unblocked without being traced. The same bits
-    /// either way; only the cost differs.
+    /// either way; only the cost differs (the bench's `traced plain` turns it off).
+    #[serde(skip)]
     pub shaft_culling: bool,
 }
 
 impl TracedParams {
+    pub const NAME: &'static str = "traced";
+
+    /// Shafts culled: the method as it ships.
+    pub const fn new(samples: u32) -> Self {
+        Self { samples, shaft_culling: true }
+    }
+
     /// Every ray traced: the plain reference.
     pub const fn plain(samples: u32) -> Self {
         Self { samples, shaft_culling: false }
+    }
+}
+
+impl Default for TracedParams {
+    fn default() -> Self {
+        Self::new(256)
+    }
+}
+
+impl ShadowMethod for TracedParams {
+    fn name(&self) -> &'static str {
+        Self::NAME
+    }
+    fn max_samples(&self) -> u32 {
+        MAX_TRACED_SAMPLES
+    }
+    fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
+        Box::new(Traced::new(TracedParams { samples, ..*self }))
+    }
+}
+
+impl MethodParams for TracedParams {
+    const NAME: &'static str = Self::NAME;
+    fn keep_code_only(&mut self, base: &Self) {
+        *self = *base;
+    }
+    fn validate(&self) -> Result<(), KeyError> {
+        Ok(())
     }
 }
 

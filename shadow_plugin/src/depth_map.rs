@@ -8,7 +8,8 @@ use crate::march::{floor_height, region_reach};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::ray::Ray;
 use rayon::prelude::*;
-use renderer::{RectLight, Scene, Shaft, VisiblePoint};
+use renderer::{KeyError, RectLight, Scene, Shaft, VisiblePoint};
+use serde::{Deserialize, Serialize};
 
 /// The light's frame: origin at its centre, x and y along its edges, z along its normal
 /// (into the scene). Light samples have z = 0 in this frame.
@@ -55,11 +56,15 @@ impl LightFrame {
     }
 }
 
-/// Depth-map parameters shared by `depth_march` and `edge_table`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Depth-map parameters shared by the depth-map methods, flattened into each one's table:
+/// `depth_map`, `slope_bias`, `slab_thickness`, `normal_offset`, `grazing_cos`. The other
+/// fields are code-only (ablations the accuracy example and tests switch).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DepthMapParams {
     /// Pixels per side (square). More pixels: finer silhouettes, larger filter regions.
-    /// Typical 128 to 1024.
+    /// Typical 128 to 1024. Key `depth_map`.
+    #[serde(rename = "depth_map")]
     pub resolution: u32,
     /// Slope-scaled bias in depth-map pixels: each texel's floor is pushed back by
     /// `slope_bias x` the depth change of its surface across one pixel footprint (from the
@@ -77,11 +82,13 @@ pub struct DepthMapParams {
     /// a surface through its front face and next meets a back face, the pixel's slab reaches
     /// down to that back face (a second depth layer), so a chair seat or a fox's leg blocks
     /// the rays that pass under its top surface. Open surfaces keep `slab_thickness`.
+    #[serde(skip)]
     pub closed_volumes: bool,
     /// `plates`: a second layer per pixel, the first surface below the first one's slab (a
     /// chair's frame under its seat, a vase's far wall), read like the first and OR-ed with
     /// it: a ray is blocked if it passes through a slab of either layer. The same masks serve
     /// both; queries cost up to twice as much where the layer is near.
+    #[serde(skip)]
     pub hidden_layer: bool,
     /// Receivers the light grazes: where the cosine between a shading point's geometric
     /// normal and the direction to the light's centre is below this, traced rays answer
@@ -98,6 +105,7 @@ pub struct DepthMapParams {
     /// the light ([`renderer::Shaft`]) is not provably clear. A receiver outside the map is
     /// answered by the traced fallback, whose first shaft test proves it unblocked at the
     /// cost of one BVH query; the map's pixels go where the shadows are.
+    #[serde(skip)]
     pub fit_shadowed: bool,
 }
 
@@ -130,6 +138,42 @@ pub const DEFAULT_NORMAL_OFFSET: f32 = 0.5;
 impl Default for DepthMapParams {
     fn default() -> Self {
         Self::new(256)
+    }
+}
+
+/// Accepted `depth_map` sizes.
+pub const DEPTH_MAP_RANGE: std::ops::RangeInclusive<u32> = 4..=8192;
+
+impl DepthMapParams {
+    /// The code-only fields from `base` (the scene file cannot set them).
+    pub fn keep_code_only(&mut self, base: &Self) {
+        self.closed_volumes = base.closed_volumes;
+        self.hidden_layer = base.hidden_layer;
+        self.fit_shadowed = base.fit_shadowed;
+    }
+
+    /// Checks the ranges; the key is the table's.
+    pub fn validate(&self) -> Result<(), KeyError> {
+        if !DEPTH_MAP_RANGE.contains(&self.resolution) {
+            let (lo, hi) = (DEPTH_MAP_RANGE.start(), DEPTH_MAP_RANGE.end());
+            return Err(KeyError::new(
+                "depth_map",
+                format!("must be in {lo}..={hi}, got {}", self.resolution),
+            ));
+        }
+        for (key, v) in [
+            ("slope_bias", self.slope_bias),
+            ("normal_offset", self.normal_offset),
+            ("slab_thickness", self.slab_thickness),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(KeyError::new(key, "must be finite and >= 0"));
+            }
+        }
+        if !(0.0..1.0).contains(&self.grazing_cos) {
+            return Err(KeyError::new("grazing_cos", "must be in [0, 1)"));
+        }
+        Ok(())
     }
 }
 

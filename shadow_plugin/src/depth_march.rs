@@ -5,18 +5,21 @@
 //!
 //! Scene file: `method = "depth_march"`, with `[shadows.depth_march]` holding the depth-map
 //! keys of `[shadows.edge_table]` and their defaults: `depth_map` (256), `heightfield`
-//! (`plates`), `slope_bias` (1.0), `slab_thickness` (2.0), `normal_offset` (0.5),
-//! `closed_volumes` and `hidden_layer` (true), `grazing_cos` (0.5).
+//! (`plates`), `slope_bias` (1.0), `slab_thickness` (2.0, `plates` only), `normal_offset`
+//! (0.5), `grazing_cos` (0.5).
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
-use crate::edge_table::Heightfield;
+use crate::edge_table::{EdgeTableParams, Heightfield, inapplicable_to_reading};
 use crate::fallback::MapFallback;
 use crate::march::{ray_blocked, stop_height};
 use crate::samples;
 use glam::Vec2;
 use renderer::sampling::Rng;
-use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery};
+use renderer::{
+    KeyError, LightShadowing, MethodParams, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery,
+};
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Visible-sample bits of the rays from map point `mp` to `samples`: bit r is 1 iff ray r
@@ -47,6 +50,48 @@ pub fn march_bits(
     }
 }
 
+/// Parameters of `depth_march`: `[shadows.depth_march]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DepthMarchParams {
+    #[serde(flatten)]
+    pub depth_map: DepthMapParams,
+    /// How the depth map's heightfield is read.
+    pub heightfield: Heightfield,
+}
+
+impl Default for DepthMarchParams {
+    fn default() -> Self {
+        let et = EdgeTableParams::default();
+        Self { depth_map: et.depth_map, heightfield: et.heightfield }
+    }
+}
+
+impl ShadowMethod for DepthMarchParams {
+    fn name(&self) -> &'static str {
+        DepthMarch::NAME
+    }
+    fn max_samples(&self) -> u32 {
+        MAX_SAMPLES as u32
+    }
+    fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
+        Box::new(DepthMarch::new(self.depth_map, self.heightfield, samples))
+    }
+}
+
+impl MethodParams for DepthMarchParams {
+    const NAME: &'static str = DepthMarch::NAME;
+    fn keep_code_only(&mut self, base: &Self) {
+        self.depth_map.keep_code_only(&base.depth_map);
+    }
+    fn inapplicable(&self, key: &str) -> Option<String> {
+        inapplicable_to_reading(key, self.heightfield)
+    }
+    fn validate(&self) -> Result<(), KeyError> {
+        self.depth_map.validate()
+    }
+}
+
 /// The plugin.
 pub struct DepthMarch {
     params: DepthMapParams,
@@ -59,6 +104,8 @@ pub struct DepthMarch {
 }
 
 impl DepthMarch {
+    pub const NAME: &'static str = "depth_march";
+
     /// # Panics
     /// `samples` above [`MAX_SAMPLES`] (checked at the config boundary).
     pub fn new(params: DepthMapParams, heightfield: Heightfield, samples: u32) -> Self {
@@ -77,7 +124,7 @@ impl DepthMarch {
 
 impl LightShadowing for DepthMarch {
     fn name(&self) -> &'static str {
-        "depth_march"
+        Self::NAME
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {

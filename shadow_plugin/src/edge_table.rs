@@ -53,11 +53,15 @@ use crate::samples;
 use glam::Vec2;
 use rayon::prelude::*;
 use renderer::sampling::{Rng, stream_seed};
-use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery};
+use renderer::{
+    KeyError, LightShadowing, MethodParams, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery,
+};
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// How visibilities of neighbouring masks combine.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Blend {
     /// The mask nearest in sub-pixel offset and (log) depth.
     Nearest,
@@ -66,9 +70,12 @@ pub enum Blend {
     Trilinear,
 }
 
-/// Parameters of the edge-table method. See the module doc for the scene-file keys.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Parameters of the edge-table method: `[shadows.edge_table]` (see the module doc for the
+/// keys); `mirrored` is code-only, set by the preset.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct EdgeTableParams {
+    #[serde(flatten)]
     pub depth_map: DepthMapParams,
     /// Masks over (sub-pixel x, sub-pixel y, depth). Sub-pixel samples are cell-centred,
     /// (a + 1/2) / n; depth levels are at the (k + 1/2) / n quantiles of the depths of the
@@ -82,6 +89,7 @@ pub struct EdgeTableParams {
     /// mask at (fx, fy) with pixel columns and the samples' x reflected gets the same
     /// crossings, bit for bit. 4x fewer masks on a 4 x 4 grid (less memory, less to build,
     /// more of it in cache); a mirrored pair shares its (reflected) samples.
+    #[serde(skip)]
     pub mirrored: bool,
 }
 
@@ -130,6 +138,80 @@ impl Default for EdgeTableParams {
     fn default() -> Self {
         Self::balanced()
     }
+}
+
+/// The named starting points of `[shadows.edge_table]` (`preset`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Preset {
+    /// [`EdgeTableParams::paper`].
+    Paper,
+    /// [`EdgeTableParams::balanced`], the default.
+    Balanced,
+    /// [`EdgeTableParams::fine`].
+    Fine,
+}
+
+/// Most masks a grid may hold, and the range of each grid dimension.
+pub const MAX_MASKS: u32 = 4096;
+pub const GRID_RANGE: std::ops::RangeInclusive<u32> = 1..=64;
+
+impl ShadowMethod for EdgeTableParams {
+    fn name(&self) -> &'static str {
+        EdgeTable::NAME
+    }
+    fn max_samples(&self) -> u32 {
+        MAX_SAMPLES as u32
+    }
+    fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
+        Box::new(EdgeTable::new(*self, samples))
+    }
+}
+
+impl MethodParams for EdgeTableParams {
+    const NAME: &'static str = EdgeTable::NAME;
+    const CHOICE_KEYS: &'static [&'static str] = &["preset"];
+
+    fn base(table: &toml::Table) -> Result<Self, KeyError> {
+        let preset = match table.get("preset") {
+            None => Preset::Balanced,
+            Some(v) => {
+                v.clone().try_into().map_err(|e: toml::de::Error| KeyError::new("preset", e.message()))?
+            }
+        };
+        Ok(match preset {
+            Preset::Paper => Self::paper(),
+            Preset::Balanced => Self::balanced(),
+            Preset::Fine => Self::fine(),
+        })
+    }
+
+    fn keep_code_only(&mut self, base: &Self) {
+        self.depth_map.keep_code_only(&base.depth_map);
+        self.mirrored = base.mirrored;
+    }
+
+    fn inapplicable(&self, key: &str) -> Option<String> {
+        inapplicable_to_reading(key, self.heightfield)
+    }
+
+    fn validate(&self) -> Result<(), KeyError> {
+        self.depth_map.validate()?;
+        if !self.grid.iter().all(|g| GRID_RANGE.contains(g)) || self.grid.iter().product::<u32>() > MAX_MASKS
+        {
+            return Err(KeyError::new(
+                "grid",
+                format!("each entry in 1..=64 and at most {MAX_MASKS} masks, got {:?}", self.grid),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// `slab_thickness` means something only to the `plates` reading.
+pub fn inapplicable_to_reading(key: &str, heightfield: Heightfield) -> Option<String> {
+    (key == "slab_thickness" && heightfield != Heightfield::Plates)
+        .then(|| format!("applies only to heightfield = \"plates\", not {heightfield:?}").to_lowercase())
 }
 
 /// A table of crossings sorted by height with cumulative bitmasks: crossings
@@ -779,7 +861,8 @@ impl Mask {
 }
 
 /// How a single depth map's heightfield is read (technical note, section 5.5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum Heightfield {
     /// Variant A: everything behind the first surface seen from the light's centre is solid.
     /// Points in that hard shadow are fully blocked, so the inner penumbra becomes umbra.
@@ -829,6 +912,8 @@ struct Prepared {
 pub const MASK_HEIGHT_QUANTILE: f64 = 0.995;
 
 impl EdgeTable {
+    pub const NAME: &'static str = "edge_table";
+
     /// # Panics
     /// `samples` outside 1..=4096 or a zero grid dimension (checked at the config boundary).
     pub fn new(params: EdgeTableParams, samples: u32) -> Self {
@@ -938,7 +1023,7 @@ fn level_position(levels: &[f32], pz: f32) -> f32 {
 
 impl LightShadowing for EdgeTable {
     fn name(&self) -> &'static str {
-        "edge_table"
+        Self::NAME
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {

@@ -11,6 +11,6 @@ pub mod pcss;
 pub mod samples;
 
 pub use depth_map::{DepthMap, DepthMapParams, LightFrame};
-pub use depth_march::DepthMarch;
-pub use edge_table::{Blend, EdgeTable, EdgeTableParams, Heightfield, Mask};
+pub use depth_march::{DepthMarch, DepthMarchParams};
+pub use edge_table::{Blend, EdgeTable, EdgeTableParams, Heightfield, Mask, Preset};
 pub use pcss::{Pcss, PcssParams};

@@ -81,12 +81,17 @@ use crate::fallback::MapFallback;
 use crate::samples;
 use glam::{Vec2, Vec3};
 use renderer::sampling::Rng;
-use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery};
+use renderer::{
+    KeyError, LightShadowing, MethodParams, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery,
+};
+use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Parameters of the PCSS method. See the module doc for the scene-file keys.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Parameters of the PCSS method: `[shadows.pcss]` (see the module doc for the keys).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PcssParams {
+    #[serde(flatten)]
     pub depth_map: DepthMapParams,
     /// Light samples read by the blocker search (1 to [`MAX_SAMPLES`]).
     pub blocker_samples: u32,
@@ -99,6 +104,38 @@ impl Default for PcssParams {
             depth_map: DepthMapParams { grazing_cos: 0.0, fit_shadowed: false, ..DepthMapParams::new(256) },
             blocker_samples: 32,
         }
+    }
+}
+
+impl ShadowMethod for PcssParams {
+    fn name(&self) -> &'static str {
+        Pcss::NAME
+    }
+    fn max_samples(&self) -> u32 {
+        MAX_SAMPLES as u32
+    }
+    fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
+        Box::new(Pcss::new(*self, samples))
+    }
+}
+
+impl MethodParams for PcssParams {
+    const NAME: &'static str = Pcss::NAME;
+    fn keep_code_only(&mut self, base: &Self) {
+        self.depth_map.keep_code_only(&base.depth_map);
+    }
+    fn inapplicable(&self, key: &str) -> Option<String> {
+        (key == "slab_thickness").then(|| "pcss reads no slabs (edge_table and depth_march do)".to_string())
+    }
+    fn validate(&self) -> Result<(), KeyError> {
+        self.depth_map.validate()?;
+        if !(1..=MAX_SAMPLES as u32).contains(&self.blocker_samples) {
+            return Err(KeyError::new(
+                "blocker_samples",
+                format!("must be in 1..={MAX_SAMPLES}, got {}", self.blocker_samples),
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -118,6 +155,8 @@ pub struct Pcss {
 }
 
 impl Pcss {
+    pub const NAME: &'static str = "pcss";
+
     /// # Panics
     /// `samples` or `params.blocker_samples` outside 1..=[`MAX_SAMPLES`] (checked at the
     /// config boundary).
@@ -191,7 +230,7 @@ fn texel(mp: &MapPoint, offset_px: Vec2) -> (i32, i32) {
 
 impl LightShadowing for Pcss {
     fn name(&self) -> &'static str {
-        "pcss"
+        Self::NAME
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {

@@ -1,8 +1,7 @@
 //! Timing one setting on one scene: `--repeats` renders, their prepare and render times,
 //! and the run's peak resident memory.
 
-use crate::config::ShadowsConfig;
-use crate::methods::build_shadowing;
+use super::sweep::Setting;
 use renderer::{Frame, RenderSettings, Scene, render};
 use std::time::Duration;
 
@@ -48,7 +47,7 @@ pub(super) struct Run {
 
 pub(super) fn run_setting(
     scene: &Scene,
-    config: &ShadowsConfig,
+    setting: &Setting,
     settings: &RenderSettings,
     repeats: u32,
     max_run_seconds: f64,
@@ -65,7 +64,8 @@ pub(super) fn run_setting(
         // The run's own peak: the high-water mark above what was resident when it started
         // (the allocator keeps what earlier runs freed, so the bare mark would carry over).
         let base = reset_peak_rss();
-        let mut methods: Vec<_> = scene.lights.iter().map(|_| build_shadowing(config)).collect();
+        let mut methods: Vec<_> =
+            scene.lights.iter().map(|_| setting.method.build(setting.samples)).collect();
         let frame = render(scene, &mut methods, settings, &|_| {}).map_err(|e| e.to_string())?;
         drop(methods);
         let run_peak = base.zip(status_mib("VmHWM:")).map_or(f64::NAN, |(b, hwm)| (hwm - b).max(0.0));

@@ -3,10 +3,9 @@
 
 use super::report::{Row, SceneResult, equal_error_speedup};
 use super::run::{Run, median, run_setting};
-use super::sweep::{Setting, cost_order, no_costlier};
+use super::sweep::{Setting, no_costlier, none_setting};
 use super::truth::Truth;
 use super::{BENCH_WIDTH, BenchArgs, QUICK_WIDTH, figures, metrics, plot, truth};
-use crate::config::{MethodName, ShadowsConfig};
 use renderer::output::StagedFiles;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile};
 use std::path::{Path, PathBuf};
@@ -84,10 +83,6 @@ fn bench_size(args: &BenchArgs, w: u32, h: u32) -> (u32, u32) {
     }
 }
 
-fn family(m: MethodName) -> &'static str {
-    m.as_str()
-}
-
 /// What every setting of a scene is measured against.
 struct Baseline<'a> {
     stem: &'a str,
@@ -119,8 +114,7 @@ pub(super) fn bench_scene(
         .map_err(|e| SceneError::new(&scene_dir, "--out", format!("cannot create the folder: {e}")))?;
     plan.log(format!("{}: {} triangles, {width}x{height}", path.display(), scene.stats.triangles));
 
-    let none_cfg = ShadowsConfig { method: MethodName::None, ..ShadowsConfig::default() };
-    let none = run_setting(&scene, &none_cfg, &settings, plan.repeats, args.max_run_seconds)
+    let none = run_setting(&scene, &none_setting(), &settings, plan.repeats, args.max_run_seconds)
         .map_err(|e| SceneError::new(path, "bench", e))?;
     // The cost floor: what every method pays (primary rays, shading, collecting the
     // visible points), median of prepare + render.
@@ -192,7 +186,7 @@ fn sweep_scene(plan: &Plan, base: &Baseline) -> Swept {
     let mut too_long: Vec<(u32, [u32; 3], u32, u32)> = Vec::new();
     let mut skipped = Vec::new();
     for s in &plan.settings {
-        if let Some(order) = cost_order(&s.config)
+        if let Some(order) = s.cost
             && too_long.iter().any(|&t| no_costlier(t, order))
         {
             plan.log(format!(
@@ -204,8 +198,7 @@ fn sweep_scene(plan: &Plan, base: &Baseline) -> Swept {
         }
         // A method that cannot run this setting (say, masks over the memory budget) is
         // listed as skipped with its reason; the rest of the sweep goes on.
-        let run = match run_setting(base.scene, &s.config, &base.settings, plan.repeats, args.max_run_seconds)
-        {
+        let run = match run_setting(base.scene, s, &base.settings, plan.repeats, args.max_run_seconds) {
             Ok(run) => run,
             Err(e) => {
                 plan.log(format!("  {:<40} skipped: {e}", s.label));
@@ -213,7 +206,7 @@ fn sweep_scene(plan: &Plan, base: &Baseline) -> Swept {
                 continue;
             }
         };
-        if let Some(order) = cost_order(&s.config)
+        if let Some(order) = s.cost
             && run.prepare[0] + run.render[0] > args.max_run_seconds
         {
             too_long.push(order);
@@ -224,7 +217,7 @@ fn sweep_scene(plan: &Plan, base: &Baseline) -> Swept {
             "  {:<40} cost {:>8.3} s  RMSE {:.4}  penumbra {:.4}",
             s.label, row.shadow_cost_s, errors.rmse, errors.penumbra_rmse
         ));
-        let fam = family(s.config.method);
+        let fam = s.method.name();
         match best.iter_mut().find(|b| b.0 == fam) {
             // A NaN error (no lit pixel) never counts as the best.
             Some(b) if errors.rmse.is_nan() || errors.rmse >= b.1 => {}
@@ -251,9 +244,9 @@ fn row(base: &Baseline, s: &Setting, run: &Run) -> Row {
     let counter = |k: &str| run.frame.counters.get(k).copied().unwrap_or(0);
     Row {
         scene: base.stem.to_string(),
-        method: family(s.config.method).to_string(),
+        method: s.method.name().to_string(),
         setting: s.label.clone(),
-        samples: s.config.samples,
+        samples: s.samples,
         edge_table_default: s.is_edge_table_default,
         width: base.settings.width,
         height: base.settings.height,

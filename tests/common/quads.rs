@@ -75,17 +75,32 @@ pub fn render_visibility(
     dir: &std::path::Path,
     tag: &str,
     scene: &str,
-    method: penumbra::config::MethodName,
+    method: &str,
+    samples: u32,
+    seed: u64,
+    size: u32,
+) -> Vec<f32> {
+    render_visibility_with(dir, tag, scene, (method, None), samples, seed, size)
+}
+
+/// [`render_visibility`] with the method's settings given in code (code-only fields
+/// included) when the pair's second half is set.
+pub fn render_visibility_with(
+    dir: &std::path::Path,
+    tag: &str,
+    scene: &str,
+    (method, settings): (&str, Option<std::sync::Arc<dyn renderer::ShadowMethod>>),
     samples: u32,
     seed: u64,
     size: u32,
 ) -> Vec<f32> {
     let scene_path = dir.join(format!("{tag}.toml"));
     std::fs::write(&scene_path, scene).unwrap();
-    let out = dir.join(format!("{tag}-{}-{samples}-{seed}.png", method.as_str()));
+    let out = dir.join(format!("{tag}-{}-{samples}-{seed}.png", method));
     let args = penumbra::RenderArgs {
         scene: Some(scene_path),
-        shadows: Some(method),
+        shadows: Some(method.to_string()),
+        method: settings,
         samples: Some(samples),
         seed,
         width: Some(size),
@@ -96,12 +111,12 @@ pub fn render_visibility(
         quiet: true,
         ..Default::default()
     };
-    penumbra::run_render(&args).unwrap_or_else(|e| panic!("{tag} ({}): {e}", method.as_str()));
+    penumbra::run_render(&args).unwrap_or_else(|e| panic!("{tag} ({}): {e}", method));
     let img = image::open(out.with_extension("visibility.0.exr")).unwrap().into_rgb32f();
     assert_eq!((img.width(), img.height()), (size, size));
     let v: Vec<f32> = img.pixels().map(|p| p.0[0]).collect();
     for (i, &x) in v.iter().enumerate() {
-        assert!(x == -1.0 || (0.0..=1.0).contains(&x), "{tag} ({}): pixel {i} has V = {x}", method.as_str());
+        assert!(x == -1.0 || (0.0..=1.0).contains(&x), "{tag} ({}): pixel {i} has V = {x}", method);
     }
     v
 }

@@ -1,0 +1,165 @@
+//! The `[shadows]` tables: every method's keys against the key reference
+//! (docs/scene-keys.md), unknown and inapplicable keys rejected with their full path,
+//! presets, and the code-only switches kept out of the scene file.
+
+use penumbra::config::ShadowsConfig;
+use penumbra::methods::METHODS;
+use renderer::{SceneError, TracedParams, parse_method};
+use shadow_plugin::{Blend, DepthMarchParams, EdgeTableParams, Heightfield, PcssParams};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+fn shadows(text: &str) -> Result<ShadowsConfig, SceneError> {
+    ShadowsConfig::from_table(&text.parse::<toml::Table>().unwrap(), Path::new("s.toml"))
+}
+
+fn error_key(text: &str) -> String {
+    shadows(text).expect_err(text).key
+}
+
+fn table(text: &str) -> toml::Table {
+    text.parse().unwrap()
+}
+
+/// docs/scene-keys.md: per `## \`[shadows.NAME]\`` section, each row's key and default.
+fn documented() -> BTreeMap<String, BTreeMap<String, String>> {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scene-keys.md")).unwrap();
+    let mut out: BTreeMap<String, BTreeMap<String, String>> = BTreeMap::new();
+    let mut section = None;
+    for line in text.lines() {
+        if let Some(h) = line.strip_prefix("## `[").and_then(|h| h.strip_suffix("]`")) {
+            section = Some(h.to_string());
+            out.entry(h.to_string()).or_default();
+            continue;
+        }
+        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
+        if let (Some(s), [_, key, _, default, ..]) = (&section, cells.as_slice())
+            && key.starts_with('`')
+        {
+            let strip = |c: &str| c.trim_matches('`').to_string();
+            out.get_mut(s).unwrap().insert(strip(key), strip(default));
+        }
+    }
+    out
+}
+
+#[test]
+fn the_key_reference_lists_every_key_with_its_default() {
+    let docs = documented();
+    for m in METHODS {
+        let section = format!("shadows.{}", m.name);
+        let doc = docs.get(&section).unwrap_or_else(|| panic!("docs/scene-keys.md has no section {section}"));
+        let mut expected: BTreeMap<String, String> =
+            (m.keys)().into_iter().map(|(k, v)| (k, v.to_string())).collect();
+        for k in m.choice_keys {
+            let documented_default = doc.get(*k).unwrap_or_else(|| panic!("{section}.{k} undocumented"));
+            expected.insert(k.to_string(), documented_default.clone());
+        }
+        assert_eq!(doc, &expected, "{section}: docs/scene-keys.md against the parameter struct");
+    }
+    let top = &docs["shadows"];
+    let defaults = ShadowsConfig::default();
+    assert_eq!(top["method"], format!("\"{}\"", defaults.name()));
+    assert_eq!(top["samples"], defaults.samples.to_string());
+    assert_eq!(docs.len(), METHODS.len() + 1, "a section for [shadows] and one per method");
+}
+
+#[test]
+fn an_unknown_key_under_every_method_is_named_with_its_full_path() {
+    for m in METHODS {
+        let key = error_key(&format!("[{}]\nbogus_key = 1", m.name));
+        assert_eq!(key, format!("shadows.{}.bogus_key", m.name));
+    }
+    assert_eq!(error_key("sample = 3"), "shadows.sample");
+    assert_eq!(error_key("method = \"magic\""), "shadows.method");
+    assert_eq!(error_key("[magic]\ngrid = 1"), "shadows.magic");
+}
+
+#[test]
+fn code_only_switches_are_not_scene_keys() {
+    for (t, k) in [
+        ("traced", "shaft_culling"),
+        ("edge_table", "mirrored"),
+        ("edge_table", "closed_volumes"),
+        ("edge_table", "hidden_layer"),
+        ("edge_table", "fit_shadowed"),
+        ("depth_march", "fit_shadowed"),
+    ] {
+        assert_eq!(error_key(&format!("[{t}]\n{k} = false")), format!("shadows.{t}.{k}"));
+    }
+}
+
+#[test]
+fn bad_values_are_named_even_in_the_shared_depth_map_keys() {
+    for (text, key) in [
+        ("[edge_table]\ndepth_map = \"big\"", "shadows.edge_table.depth_map"),
+        ("[edge_table]\ndepth_map = 2", "shadows.edge_table.depth_map"),
+        ("[edge_table]\ngrid = [4, 0, 1]", "shadows.edge_table.grid"),
+        ("[edge_table]\ngrid = [4, 4, -1]", "shadows.edge_table.grid[2]"),
+        ("[edge_table]\nblend = \"cubic\"", "shadows.edge_table.blend"),
+        ("[edge_table]\npreset = \"ultra\"", "shadows.edge_table.preset"),
+        ("[depth_march]\nslope_bias = -1.0", "shadows.depth_march.slope_bias"),
+        ("[pcss]\nnormal_offset = nan", "shadows.pcss.normal_offset"),
+        ("[pcss]\nblocker_samples = 0", "shadows.pcss.blocker_samples"),
+        ("[pcss]\nblocker_samples = 4097", "shadows.pcss.blocker_samples"),
+        ("[edge_table]\ngrazing_cos = 1.0", "shadows.edge_table.grazing_cos"),
+        ("samples = 0", "shadows.samples"),
+        ("samples = -4", "shadows.samples"),
+        ("method = \"edge_table\"\nsamples = 8192", "shadows.samples"),
+        ("method = \"pcss\"\nsamples = 8192", "shadows.samples"),
+        // Checked whichever method runs.
+        ("method = \"traced\"\n[pcss]\ngrazing_cos = -0.5", "shadows.pcss.grazing_cos"),
+    ] {
+        assert_eq!(error_key(text), key, "{text}");
+    }
+    assert_eq!(shadows("method = \"traced\"\nsamples = 65536").unwrap().samples, 65536);
+}
+
+#[test]
+fn a_key_that_does_not_apply_to_the_reading_is_an_error() {
+    for h in ["shells", "solid"] {
+        for t in ["edge_table", "depth_march"] {
+            let text = format!("[{t}]\nheightfield = \"{h}\"\nslab_thickness = 3.0");
+            assert_eq!(error_key(&text), format!("shadows.{t}.slab_thickness"));
+        }
+    }
+    // The paper preset reads shells: its slab key is inapplicable unless the reading changes.
+    assert_eq!(
+        error_key("[edge_table]\npreset = \"paper\"\nslab_thickness = 1.0"),
+        "shadows.edge_table.slab_thickness"
+    );
+    shadows("[edge_table]\npreset = \"paper\"\nheightfield = \"plates\"\nslab_thickness = 1.0").unwrap();
+    assert_eq!(error_key("[pcss]\nslab_thickness = 1.0"), "shadows.pcss.slab_thickness");
+}
+
+#[test]
+fn presets_start_the_edge_table_and_keys_override_them() {
+    let p = Path::new("s.toml");
+    let parse = |text: &str| parse_method::<EdgeTableParams>(&table(text), p, "shadows.edge_table").unwrap();
+    assert_eq!(parse(""), EdgeTableParams::balanced());
+    assert_eq!(parse("preset = \"paper\""), EdgeTableParams::paper());
+    assert_eq!(parse("preset = \"fine\""), EdgeTableParams::fine());
+    let c = parse("preset = \"fine\"\ngrid = [2, 2, 1]");
+    assert_eq!((c.grid, c.blend, c.depth_map.resolution), ([2, 2, 1], Blend::Trilinear, 512));
+    assert!(c.mirrored, "the code-only switch comes from the preset");
+    let c = parse("preset = \"paper\"\nheightfield = \"solid\"\ndepth_map = 128");
+    assert_eq!((c.heightfield, c.depth_map.resolution, c.mirrored), (Heightfield::Solid, 128, false));
+    assert!(c.depth_map.closed_volumes && c.depth_map.hidden_layer && c.depth_map.fit_shadowed);
+    let d = parse_method::<DepthMarchParams>(&table("heightfield = \"shells\""), p, "x").unwrap();
+    assert_eq!((d.heightfield, d.depth_map), (Heightfield::Shells, EdgeTableParams::default().depth_map));
+    let c = parse_method::<PcssParams>(&table("depth_map = 512\nblocker_samples = 64"), p, "x").unwrap();
+    assert_eq!((c.depth_map.resolution, c.blocker_samples), (512, 64));
+    assert_eq!(c.depth_map.slope_bias, PcssParams::default().depth_map.slope_bias);
+    let t = parse_method::<TracedParams>(&table(""), p, "x").unwrap();
+    assert!(t.shaft_culling, "traced ships with shaft culling");
+}
+
+#[test]
+fn the_chosen_method_builds_and_the_override_keeps_its_table() {
+    let mut c = shadows("method = \"none\"\nsamples = 64\n[pcss]\nblocker_samples = 8").unwrap();
+    assert_eq!((c.name(), c.samples, c.build().name()), ("none", 64, "none"));
+    c.choose("pcss", Path::new("s.toml"), "--shadows").unwrap();
+    assert_eq!((c.name(), c.build().name()), ("pcss", "pcss"));
+    assert_eq!(c.choose("magic", Path::new("s.toml"), "--shadows").unwrap_err().key, "--shadows");
+    assert_eq!(ShadowsConfig::default().name(), "traced");
+}
