@@ -10,8 +10,8 @@
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
-use crate::edge_table::Heightfield;
 use crate::fallback::MapFallback;
+use crate::heightfield::Heightfield;
 use crate::march::{ray_blocked, stop_height};
 use crate::samples;
 use glam::Vec2;

@@ -48,6 +48,7 @@
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams};
 use crate::fallback::MapFallback;
+pub use crate::heightfield::Heightfield;
 use crate::march::{floor_height, for_each_crossing, stop_height};
 use crate::samples;
 use glam::Vec2;
@@ -776,22 +777,6 @@ impl Mask {
         }
         stats
     }
-}
-
-/// How a single depth map's heightfield is read (technical note, section 5.5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Heightfield {
-    /// Variant A: everything behind the first surface seen from the light's centre is solid.
-    /// Points in that hard shadow are fully blocked, so the inner penumbra becomes umbra.
-    Solid,
-    /// Variant B: floors and front-facing walls only; occluders are shells at their
-    /// light-facing surfaces, so rays may leave from under a thin occluder sideways.
-    /// Identical to `Solid` for points in front of their own floor.
-    Shells,
-    /// Floors only: every depth-map pixel is a thin plate at its depth, with nothing under
-    /// it. Floating thin occluders get their outer penumbra right (no walls hang from their
-    /// edges); thick occluders leak where a ray passes under their top and out of a side.
-    Plates,
 }
 
 #[derive(Debug, Default, Clone, Copy)]

@@ -1,0 +1,19 @@
+//! How a depth map's heightfield is read: the one choice `march` (per ray), `depth_march`
+//! and `edge_table` (per mask) share. On its own so that every one of them can name it
+//! without naming the others.
+
+/// How a single depth map's heightfield is read (technical note, section 5.5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Heightfield {
+    /// Variant A: everything behind the first surface seen from the light's centre is solid.
+    /// Points in that hard shadow are fully blocked, so the inner penumbra becomes umbra.
+    Solid,
+    /// Variant B: floors and front-facing walls only; occluders are shells at their
+    /// light-facing surfaces, so rays may leave from under a thin occluder sideways.
+    /// Identical to `Solid` for points in front of their own floor.
+    Shells,
+    /// Floors only: every depth-map pixel is a thin plate at its depth, with nothing under
+    /// it. Floating thin occluders get their outer penumbra right (no walls hang from their
+    /// edges); thick occluders leak where a ray passes under their top and out of a side.
+    Plates,
+}
