@@ -47,7 +47,7 @@
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams};
-use crate::fallback::MapFallback;
+use crate::fallback::{Located, MapFallback, OnMap};
 pub use crate::heightfield::Heightfield;
 use crate::march::{floor_height, for_each_crossing, stop_height};
 use crate::samples;
@@ -1064,17 +1064,16 @@ impl LightShadowing for EdgeTable {
         let map = &st.map;
         let frame = &map.frame;
         // Grazed points and points outside the map: traced rays answer (counted).
-        let (p, mp) = match self.fallback.lookup(map, scene, q) {
-            Ok(found) => found,
-            Err(traced) => return traced,
+        let OnMap { p, mp, z_stop, clipped } = match self.fallback.locate(map, scene, q) {
+            Located::OnMap(on_map) => on_map,
+            Located::Traced(v) => return v,
+            Located::NearerThanMap => {
+                self.early_outs.fetch_add(1, Ordering::Relaxed);
+                return 1.0;
+            }
         };
-        if p.z <= map.z_min {
-            self.early_outs.fetch_add(1, Ordering::Relaxed);
-            return 1.0;
-        }
         // The masks must reach the region's stop height. A region reaching outside the map
         // sees no occluder there (counted).
-        let (z_stop, clipped) = map.stop_depth(mp.pixel, p.z);
         if clipped {
             self.clipped.fetch_add(1, Ordering::Relaxed);
         }
