@@ -1,6 +1,6 @@
 //! The min-depth pyramid of a depth map: a lower bound of the depths over any pixel
-//! rectangle in a few reads (region shrinking, [`super::DepthMap::stop_depth`], and block
-//! culling, [`super::DepthMap::min_depth`]).
+//! rectangle in a few reads (region shrinking, `DepthMap::stop_depth`, and block culling,
+//! `DepthMap::min_depth`).
 
 /// Min-depth mip levels: level l holds the minimum over 2^l x 2^l pixel blocks.
 #[derive(Debug, Clone)]
