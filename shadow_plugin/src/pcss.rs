@@ -508,6 +508,7 @@ mod tests {
             light_index: 0,
             visible: &visible,
             seed: 0,
+            mask_budget_bytes: u64::MAX,
         };
         m.prepare(&ctx).unwrap();
         for (k, vp) in visible.iter().enumerate() {
