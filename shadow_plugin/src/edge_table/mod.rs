@@ -43,7 +43,8 @@
 //! grid = [2, 2, 8]
 //! blend = "nearest"
 //! heightfield = "plates"
-//! ```//!
+//! ```
+//!
 //! The rooms: this file is the plugin ([`EdgeTable`]: preparing a light's map and masks,
 //! answering queries, the counters); `params.rs` holds [`EdgeTableParams`] and its presets,
 //! `grid.rs` the grid of masks (depth levels, mirrored masks, which masks a point reads),

@@ -79,8 +79,9 @@ impl Mask {
 struct Reading<'a> {
     mask: &'a Mask,
     map: &'a DepthMap,
-    /// The point's pixel, and per axis 1, or -1 when the mask is read mirrored.
+    /// The point's pixel: where the mask's own pixel falls.
     base: [i32; 2],
+    /// Per axis 1, or -1 where the mask is read mirrored.
     sign: [i32; 2],
     /// The point's depth.
     pz: f32,
