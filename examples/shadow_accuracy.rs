@@ -107,7 +107,8 @@ fn main() {
     if scenes.is_empty() {
         scenes.push(PathBuf::from("scenes/default.toml"));
     }
-    let settings = RenderSettings { width, height, spp: 1, seed: 0 };
+    let mask_budget_bytes = penumbra::memory::mask_budget_bytes();
+    let settings = RenderSettings { width, height, spp: 1, seed: 0, mask_budget_bytes };
     let et = |res: u32, grid: [u32; 3], blend: Blend, heightfield: Heightfield| EdgeTableParams {
         depth_map: DepthMapParams::new(res),
         grid,

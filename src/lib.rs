@@ -3,6 +3,7 @@
 
 pub mod bench;
 pub mod config;
+pub mod memory;
 pub mod methods;
 pub mod report;
 
@@ -139,7 +140,8 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     pool.install(|| {
         let scene = Scene::load(&file, &scene_path)?;
         let mut methods: Vec<_> = scene.lights.iter().map(|_| shadows.build()).collect();
-        let settings = RenderSettings { width, height, spp, seed: args.seed };
+        let mask_budget_bytes = memory::mask_budget_bytes();
+        let settings = RenderSettings { width, height, spp, seed: args.seed, mask_budget_bytes };
         let bar = progress_bar(height as u64, args.quiet);
         let frame = render(&scene, &mut methods, &settings, &|n| bar.inc(n))
             .map_err(|e| SceneError::new(&scene_path, "shadows", e.to_string()))?;

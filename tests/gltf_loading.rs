@@ -478,7 +478,14 @@ fn write_card(dir: &TempDir, stem: &str, alpha_mode: &str, h: f32) {
 fn floor_visibility(scene: &Scene, points: &[DVec3]) -> Vec<f32> {
     let mut traced = Traced::new(TracedParams::plain(64));
     traced
-        .prepare(&PrepareContext { scene, light: &scene.lights[0], light_index: 0, visible: &[], seed: 0 })
+        .prepare(&PrepareContext {
+            scene,
+            light: &scene.lights[0],
+            light_index: 0,
+            visible: &[],
+            seed: 0,
+            mask_budget_bytes: u64::MAX,
+        })
         .expect("prepare");
     points
         .iter()

@@ -20,6 +20,9 @@ pub struct RenderSettings {
     /// 1 = one ray through each pixel centre; more = jittered stratified samples, box filter.
     pub spp: u32,
     pub seed: u64,
+    /// Handed to every method's `prepare` ([`PrepareContext::mask_budget_bytes`]): the most
+    /// bytes of masks one light may hold. The command line reads it from the machine.
+    pub mask_budget_bytes: u64,
 }
 
 /// What a frame produces.
@@ -55,7 +58,7 @@ pub fn render(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Frame, ShadowError> {
     assert_eq!(methods.len(), scene.lights.len(), "one shadow method per light");
-    let RenderSettings { width, height, spp, seed } = *settings;
+    let RenderSettings { width, height, spp, seed, mask_budget_bytes } = *settings;
     let (w, h, spp_us) = (width as usize, height as usize, spp as usize);
 
     // Primary pass.
@@ -89,7 +92,14 @@ pub fn render(
         .map(|hit| VisiblePoint { p: hit.p, n_geom: hit.n_geom, n_shading: hit.n_shading })
         .collect();
     for (k, method) in methods.iter_mut().enumerate() {
-        let ctx = PrepareContext { scene, light: &scene.lights[k], light_index: k, visible: &visible, seed };
+        let ctx = PrepareContext {
+            scene,
+            light: &scene.lights[k],
+            light_index: k,
+            visible: &visible,
+            seed,
+            mask_budget_bytes,
+        };
         method.prepare(&ctx)?;
     }
     drop(visible);

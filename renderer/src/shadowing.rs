@@ -25,6 +25,10 @@ pub struct PrepareContext<'a> {
     pub visible: &'a [VisiblePoint],
     /// The frame's seed.
     pub seed: u64,
+    /// Most bytes a method may hold for this light (`edge_table`'s masks), from
+    /// [`crate::RenderSettings::mask_budget_bytes`]: given as data, so that methods never
+    /// probe their environment.
+    pub mask_budget_bytes: u64,
 }
 
 /// A primary hit, as handed to `prepare`.
@@ -313,7 +317,14 @@ mod tests {
 
     fn traced(scene: &Scene, samples: u32) -> Traced {
         let mut t = Traced::new(TracedParams::plain(samples));
-        let ctx = PrepareContext { scene, light: &scene.lights[0], light_index: 0, visible: &[], seed: 0 };
+        let ctx = PrepareContext {
+            scene,
+            light: &scene.lights[0],
+            light_index: 0,
+            visible: &[],
+            seed: 0,
+            mask_budget_bytes: u64::MAX,
+        };
         t.prepare(&ctx).unwrap();
         t
     }

@@ -484,7 +484,14 @@ mod tests {
     }
 
     fn plain_and_culled(s: &Scene) -> (Traced, Traced) {
-        let ctx = PrepareContext { scene: s, light: &s.lights[0], light_index: 0, visible: &[], seed: 0 };
+        let ctx = PrepareContext {
+            scene: s,
+            light: &s.lights[0],
+            light_index: 0,
+            visible: &[],
+            seed: 0,
+            mask_budget_bytes: u64::MAX,
+        };
         let mut plain = Traced::new(TracedParams::plain(1024));
         let mut culled = Traced::new(TracedParams { samples: 1024, shaft_culling: true });
         plain.prepare(&ctx).unwrap();

@@ -10,8 +10,8 @@
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
-use crate::edge_table::{EdgeTableParams, Heightfield, inapplicable_to_reading};
-use crate::fallback::MapFallback;
+use crate::fallback::{Located, MapFallback, OnMap};
+use crate::heightfield::{Heightfield, inapplicable_to_reading};
 use crate::march::{ray_blocked, stop_height};
 use crate::samples;
 use glam::Vec2;
@@ -62,8 +62,8 @@ pub struct DepthMarchParams {
 
 impl Default for DepthMarchParams {
     fn default() -> Self {
-        let et = EdgeTableParams::default();
-        Self { depth_map: et.depth_map, heightfield: et.heightfield }
+        // edge_table's defaults (its `balanced` preset).
+        Self { depth_map: DepthMapParams::default(), heightfield: Heightfield::Plates }
     }
 }
 
@@ -136,15 +136,14 @@ impl LightShadowing for DepthMarch {
         let map = self.map.as_ref().expect("prepare() runs before visibility()");
         let frame = &map.frame;
         // Grazed points and points outside the map: traced rays answer (counted).
-        let (p, mp) = match self.fallback.lookup(map, scene, q) {
-            Ok(found) => found,
-            Err(traced) => return traced,
+        let OnMap { mp, z_stop, clipped, .. } = match self.fallback.locate(map, scene, q) {
+            Located::OnMap(on_map) => on_map,
+            Located::Traced(v) => return v,
+            Located::NearerThanMap => {
+                self.early_outs.fetch_add(1, Ordering::Relaxed);
+                return 1.0;
+            }
         };
-        if p.z <= map.z_min {
-            self.early_outs.fetch_add(1, Ordering::Relaxed);
-            return 1.0; // nearer the light than any surface in the map
-        }
-        let (z_stop, clipped) = map.stop_depth(mp.pixel, p.z);
         if clipped {
             self.clipped.fetch_add(1, Ordering::Relaxed);
         }

@@ -6,11 +6,13 @@ pub mod depth_map;
 pub mod depth_march;
 pub mod edge_table;
 pub mod fallback;
+pub mod heightfield;
 pub mod march;
 pub mod pcss;
 pub mod samples;
 
 pub use depth_map::{DepthMap, DepthMapParams, LightFrame};
 pub use depth_march::{DepthMarch, DepthMarchParams};
-pub use edge_table::{Blend, EdgeTable, EdgeTableParams, Heightfield, Mask, Preset};
+pub use edge_table::{Blend, EdgeTable, EdgeTableParams, Mask, Preset};
+pub use heightfield::Heightfield;
 pub use pcss::{Pcss, PcssParams};

@@ -10,10 +10,9 @@
 //!
 //! Each pixel is a floor at normalised height H(c) = 1 - D(c) / Pz (D: the biased depth);
 //! "at or below the floor" (h <= H, ties block) is inside the solid the map implies. See
-//! [`crate::edge_table::Heightfield`] for the two readings and [`ray_blocked`] for the
-//! per-ray rule.
+//! [`Heightfield`] for the readings and [`ray_blocked`] for the per-ray rule.
 
-use crate::edge_table::Heightfield;
+use crate::heightfield::Heightfield;
 use glam::Vec2;
 
 /// Calls `visit(cell, axis, h)` for each pixel the ray enters (axis 0: through a vertical

@@ -77,7 +77,7 @@
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
-use crate::fallback::MapFallback;
+use crate::fallback::{Located, MapFallback, OnMap};
 use crate::samples;
 use glam::{Vec2, Vec3};
 use renderer::sampling::Rng;
@@ -245,16 +245,13 @@ impl LightShadowing for Pcss {
         let map = self.map.as_ref().expect("prepare() runs before visibility()");
         let frame = &map.frame;
         // Grazed points (when `grazing_cos` is set) and points outside the map: traced rays
-        // answer (counted).
-        let (p, mp) = match self.fallback.lookup(map, scene, q) {
-            Ok(found) => found,
-            Err(traced) => return traced,
+        // answer (counted). The stop depth is the nearest depth any ray from P can meet:
+        // nothing nearer the light lies in reach.
+        let OnMap { p, mp, z_stop: z_near, .. } = match self.fallback.locate(map, scene, q) {
+            Located::OnMap(on_map) => on_map,
+            Located::Traced(v) => return v,
+            Located::NearerThanMap => return self.early_out(),
         };
-        if p.z <= map.z_min {
-            return self.early_out(); // nearer the light than any surface in the map
-        }
-        // The nearest depth any ray from P can meet: nothing nearer the light lies in reach.
-        let (z_near, _clipped) = map.stop_depth(mp.pixel, p.z);
         if z_near >= p.z {
             return self.early_out();
         }
@@ -550,6 +547,7 @@ mod tests {
             light_index: 0,
             visible: &visible,
             seed: 0,
+            mask_budget_bytes: u64::MAX,
         };
         m.prepare(&ctx).unwrap();
         for (k, vp) in visible.iter().enumerate() {

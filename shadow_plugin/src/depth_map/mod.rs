@@ -3,12 +3,21 @@
 //! pixels and linear planar depth in f32, rendered by rays through the BVH (alpha test
 //! honoured). Its frustum covers what the camera sees that the light reaches, plus the
 //! filter margin. Depths are stored already biased (see [`DepthMapParams::slope_bias`]).
+//!
+//! This file holds the map's types and the lookups queries make; `build.rs` renders the map
+//! ([`DepthMap::build`]), `fit.rs` fits its frustum to the receivers, `pyramid.rs` is the
+//! min-depth pyramid behind region shrinking and block culling.
+
+mod build;
+mod fit;
+mod pyramid;
+#[cfg(test)]
+mod tests;
 
 use crate::march::{floor_height, region_reach};
-use glam::{Vec2, Vec3, Vec3A};
-use obvhs::ray::Ray;
-use rayon::prelude::*;
-use renderer::{KeyError, RectLight, Scene, Shaft, VisiblePoint};
+use glam::{Vec2, Vec3};
+use pyramid::MinPyramid;
+use renderer::{KeyError, RectLight};
 use serde::{Deserialize, Serialize};
 
 /// The light's frame: origin at its centre, x and y along its edges, z along its normal
@@ -182,15 +191,6 @@ impl DepthMapParams {
 /// more fall back to traced rays.
 pub const MAX_TAN: f32 = 4.0;
 
-/// How many closed meshes stacked on each other one pixel's slab may span.
-const MAX_STACKED_SOLIDS: usize = 4;
-
-/// Steepest surface slope under which `closed_volumes` thickens a pixel's slab.
-const MAX_SOLID_SLOPE: f32 = 1.0;
-
-/// Steepest surface slope (tan of the angle to the view ray) the bias accounts for.
-const MAX_SLOPE: f32 = 8.0;
-
 #[derive(Debug, Clone)]
 pub struct DepthMap {
     pub frame: LightFrame,
@@ -232,72 +232,6 @@ fn grazing(frame: &LightFrame, grazing_cos: f32, p: Vec3, n_geom: Vec3) -> bool 
 /// Share of the receivers' total irradiance, per side and axis, left out of the frustum.
 pub const RECEIVER_TRIM: f64 = 0.001;
 
-/// The range of `(coordinate, weight)` pairs that leaves out `RECEIVER_TRIM` of the total
-/// weight at each end.
-fn trimmed_range(values: &mut [(f32, f32)]) -> (f32, f32) {
-    // A total order on both members: the order, and so the sums below, are the same bits
-    // whatever the parallel sort's split (thread count).
-    values.par_sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    let total: f64 = values.iter().map(|v| v.1 as f64).sum();
-    let cut = total * RECEIVER_TRIM;
-    let position = |iter: &mut dyn Iterator<Item = &(f32, f32)>| {
-        let mut acc = 0.0;
-        for v in iter {
-            acc += v.1 as f64;
-            if acc > cut {
-                return v.0;
-            }
-        }
-        values[0].0
-    };
-    let lo = position(&mut values.iter());
-    let hi = position(&mut values.iter().rev());
-    (lo.min(hi), hi.max(lo))
-}
-
-/// Min-depth mip levels: level l holds the minimum over 2^l x 2^l pixel blocks.
-#[derive(Debug, Clone)]
-struct MinPyramid {
-    levels: Vec<(usize, Vec<f32>)>,
-}
-
-impl MinPyramid {
-    fn new(depth: &[f32], n: usize) -> Self {
-        let mut levels = vec![(n, depth.to_vec())];
-        while levels.last().unwrap().0 > 1 {
-            let (m, prev) = levels.last().unwrap();
-            let (m, half) = (*m, m.div_ceil(2));
-            let mut next = vec![f32::INFINITY; half * half];
-            for j in 0..m {
-                for i in 0..m {
-                    let d = &mut next[(j / 2) * half + i / 2];
-                    *d = d.min(prev[j * m + i]);
-                }
-            }
-            levels.push((half, next));
-        }
-        Self { levels }
-    }
-
-    /// A lower bound of the depths in the pixel rectangle [lo, hi] (clipped to the map):
-    /// the minimum over the blocks of the first level where it spans at most 4 blocks.
-    fn min(&self, lo: [i32; 2], hi: [i32; 2]) -> f32 {
-        let n0 = self.levels[0].0 as i32;
-        let lo = [lo[0].clamp(0, n0 - 1), lo[1].clamp(0, n0 - 1)];
-        let hi = [hi[0].clamp(0, n0 - 1), hi[1].clamp(0, n0 - 1)];
-        let span = (hi[0] - lo[0]).max(hi[1] - lo[1]) as u32;
-        let l = (32 - (span / 4).leading_zeros()).min(self.levels.len() as u32 - 1) as usize;
-        let (m, data) = &self.levels[l];
-        let mut z = f32::INFINITY;
-        for j in (lo[1] >> l)..=(hi[1] >> l) {
-            for i in (lo[0] >> l)..=(hi[0] >> l) {
-                z = z.min(data[j as usize * m + i as usize]);
-            }
-        }
-        z
-    }
-}
-
 /// A point in depth-map terms: its pixel, its offset inside the pixel, its depth.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MapPoint {
@@ -306,202 +240,7 @@ pub struct MapPoint {
     pub z: f32,
 }
 
-/// What the map's rays see, for [`DepthMap::build`].
-struct Surfaces<'a> {
-    scene: &'a Scene,
-    frame: &'a LightFrame,
-    params: &'a DepthMapParams,
-    pitch: f32,
-    slab: f32,
-    eps: f32,
-}
-
-impl Surfaces<'_> {
-    /// The first surface the light's ray through image point `img` meets beyond planar depth
-    /// `from`, as a (floor, slab bottom) pair of biased depths.
-    fn slab_after(&self, img: Vec2, from: f32) -> Option<(f32, f32)> {
-        let (frame, params, pitch, eps) = (self.frame, self.params, self.pitch, self.eps);
-        // Direction with light-space z = 1: the ray's t is then the planar depth.
-        let dir = frame.x * img.x + frame.y * img.y + frame.z;
-        let ray = Ray::new(Vec3A::from(frame.origin), Vec3A::from(dir), from, f32::INFINITY);
-        let hit = self.scene.intersect(ray)?;
-        // Planar depth over the image is z = c / (n . (u, v, 1)) for a plane with light-frame
-        // normal n, so one pixel changes it by about pitch * z * |n_xy| / |n . (u, v, 1)|:
-        // zero for surfaces facing the light squarely, large for grazing ones (capped at
-        // MAX_SLOPE).
-        let z = hit.t;
-        let n = Vec3::new(hit.n_geom.dot(frame.x), hit.n_geom.dot(frame.y), hit.n_geom.dot(frame.z));
-        let facing = (n.x * img.x + n.y * img.y + n.z).abs();
-        let slope = (n.truncate().length() / facing.max(1e-12)).min(MAX_SLOPE);
-        let d = z + params.slope_bias * pitch * z * slope + eps;
-        let mut b = d * (1.0 + self.slab);
-        // Closed volumes: the next surface along the same ray. A back face there means the
-        // ray was inside a closed mesh from z to it (glTF meshes wind their front faces
-        // outwards); anything else is an open surface. Solids stacked within a slab of each
-        // other (a ball resting on a seat) are one. Only under surfaces that face the light
-        // (slope <= 1, within 45 deg): the depth of a surface the light grazes steps steeply
-        // from pixel to pixel, so rays leaving it dip under its neighbours' floors and would
-        // stay blocked in a thick slab (measured: false shadows on a grazed wall).
-        if params.closed_volumes && hit.front_face && slope <= MAX_SOLID_SLOPE {
-            let mut from = z;
-            for _ in 0..MAX_STACKED_SOLIDS {
-                let inside = Ray::new(ray.origin, ray.direction, from + 2.0 * eps, f32::INFINITY);
-                let Some(exit) = self.scene.intersect(inside).filter(|h| !h.front_face) else { break };
-                b = b.max(exit.t + eps);
-                let beyond = Ray::new(ray.origin, ray.direction, exit.t + 2.0 * eps, f32::INFINITY);
-                match self.scene.intersect(beyond) {
-                    Some(next) if next.front_face && next.t <= exit.t * (1.0 + self.slab) + eps => {
-                        from = next.t
-                    }
-                    _ => break,
-                }
-            }
-        }
-        Some((d, b))
-    }
-}
-
 impl DepthMap {
-    /// Fits the frustum to the receivers in `visible` and renders the map.
-    ///
-    /// # Panics
-    /// A negative or non-finite `slope_bias` or `slab_thickness` (checked at the config
-    /// boundary): every layer must lie at or below the one before it.
-    pub fn build(
-        scene: &Scene,
-        light: &RectLight,
-        visible: &[VisiblePoint],
-        params: &DepthMapParams,
-    ) -> Self {
-        assert!(params.slope_bias >= 0.0 && params.slope_bias.is_finite(), "slope_bias");
-        assert!(params.slab_thickness >= 0.0 && params.slab_thickness.is_finite(), "slab_thickness");
-        let frame = LightFrame::new(light);
-        let res = params.resolution.max(1);
-        let eps = scene.epsilon.eps;
-
-        // Receivers: visible points the light reaches, weighted by their irradiance. The
-        // frustum leaves out RECEIVER_TRIM of the total irradiance on each side of each axis:
-        // surfaces reaching up to the light's plane (a wall beside a ceiling light) would
-        // otherwise stretch the map over a huge field of view for points that the light
-        // only grazes; those fall back to traced rays.
-        // In parallel, with the sorts in `trimmed_range`: on the default scene at 640x480 (307k
-        // points) the serial fit took 67 of prepare's 160 ms.
-        // With `fit_shadowed`, the box is fitted to the receivers whose shaft is not clear
-        // (the third member), while the depth range (and so the margin below) still spans
-        // every receiver: the margin fitted to the shadowed ones alone grew with their depth
-        // and coarsened the map (tests/hard_cases.rs, light larger than the scene: RMSE 0.025
-        // -> 0.038).
-        let receivers: Vec<(Vec3, f32, bool)> = visible
-            .par_iter()
-            .filter_map(|v| {
-                let p = frame.light_from_world(v.p);
-                if p.z <= eps || grazing(&frame, params.grazing_cos, v.p, v.n_geom) {
-                    return None;
-                }
-                let e = light.irradiance_factor(v.p, v.n_shading);
-                if e <= 0.0 {
-                    return None;
-                }
-                let fitted = !params.fit_shadowed
-                    || Shaft::new(light, v.p, v.n_geom, eps).is_none_or(|shaft| !scene.shaft_clear(&shaft));
-                Some((p, e, fitted))
-            })
-            .collect();
-        // Nothing in view that anything may shadow: fit to every receiver, as without the
-        // option (not to a default box the points would read masks through for nothing).
-        let any_fitted = receivers.iter().any(|r| r.2);
-        let fitted = receivers.iter().filter(|r| r.2 || !any_fitted);
-        let mut xs: Vec<(f32, f32)> = fitted.clone().map(|(p, e, _)| (p.x / p.z, *e)).collect();
-        let mut ys: Vec<(f32, f32)> = fitted.map(|(p, e, _)| (p.y / p.z, *e)).collect();
-        let mut z_recv_min = receivers.iter().map(|(p, _, _)| p.z).fold(f32::INFINITY, f32::min);
-        let (mut lo, mut hi) = if xs.is_empty() {
-            // No receiver at all (some are always fitted when there are any).
-            z_recv_min = 1.0;
-            (Vec2::splat(-1.0), Vec2::splat(1.0))
-        } else {
-            let (x0, x1) = trimmed_range(&mut xs);
-            let (y0, y1) = trimmed_range(&mut ys);
-            (Vec2::new(x0, y0), Vec2::new(x1, y1))
-        };
-        lo = lo.clamp(Vec2::splat(-MAX_TAN), Vec2::splat(MAX_TAN));
-        hi = hi.clamp(lo, Vec2::splat(MAX_TAN));
-
-        // Casters: the nearest vertex in front of the light whose image could reach a
-        // receiver's filter region (conservatively, within the receivers' box grown by the
-        // light's half size / z).
-        let mut caster_z_near = z_recv_min;
-        for t in &scene.triangles {
-            for v in [t.v0, t.v1, t.v2] {
-                let p = frame.light_from_world(Vec3::from(v));
-                if p.z > eps && p.z < caster_z_near {
-                    let img = Vec2::new(p.x, p.y) / p.z;
-                    let reach = frame.half_size / p.z;
-                    if img.cmpge(lo - reach).all() && img.cmple(hi + reach).all() {
-                        caster_z_near = p.z;
-                    }
-                }
-            }
-        }
-        // The margin: how far a shadow ray travels in the image before it is above the
-        // nearest caster.
-        let margin = frame.half_size * (1.0 / caster_z_near - 1.0 / (z_recv_min.max(caster_z_near)));
-        let lo = (lo - margin).max(Vec2::splat(-MAX_TAN));
-        let hi = (hi + margin).min(Vec2::splat(MAX_TAN));
-        let side = (hi - lo).max_element().max(1e-6);
-        let centre = 0.5 * (lo + hi);
-        // One pixel of padding on each side so the border pixels are inside the fit.
-        let pitch = side / (res as f32 - 2.0).max(1.0);
-        let origin = centre - Vec2::splat(0.5 * pitch * res as f32);
-
-        let slab = params.slab_thickness * pitch;
-        let n_pixels = (res * res) as usize;
-        let mut depth = vec![f32::INFINITY; n_pixels];
-        let mut bottom = vec![f32::INFINITY; n_pixels];
-        let mut depth2 = vec![f32::INFINITY; n_pixels];
-        let mut bottom2 = vec![f32::INFINITY; n_pixels];
-        let surface = Surfaces { scene, frame: &frame, params, pitch, slab, eps };
-        let row = res as usize;
-        depth
-            .par_chunks_mut(row)
-            .zip(bottom.par_chunks_mut(row))
-            .zip(depth2.par_chunks_mut(row))
-            .zip(bottom2.par_chunks_mut(row))
-            .enumerate()
-            .for_each(|(j, (((d_row, b_row), d2_row), b2_row))| {
-                for i in 0..row {
-                    let img = origin + pitch * Vec2::new(i as f32 + 0.5, j as f32 + 0.5);
-                    let Some((d, b)) = surface.slab_after(img, 2.0 * eps) else { continue };
-                    (d_row[i], b_row[i]) = (d, b);
-                    // The hidden layer: the first surface below this pixel's slab.
-                    if params.hidden_layer
-                        && let Some((d2, b2)) = surface.slab_after(img, b)
-                    {
-                        (d2_row[i], b2_row[i]) = (d2, b2);
-                    }
-                }
-            });
-        if !params.hidden_layer {
-            (depth2, bottom2) = (Vec::new(), Vec::new());
-        }
-        let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
-        let pyramid = MinPyramid::new(&depth, res as usize);
-        DepthMap {
-            frame,
-            resolution: res,
-            origin,
-            pitch,
-            depth,
-            z_min,
-            caster_z_near,
-            bottom,
-            depth2,
-            bottom2,
-            normal_offset: params.normal_offset,
-            grazing_cos: params.grazing_cos,
-            pyramid,
-        }
-    }
-
     /// A map over a given heightfield (biased depths, row-major), for tests and tools.
     ///
     /// # Panics
@@ -711,112 +450,5 @@ impl DepthMap {
     pub fn bytes(&self) -> u64 {
         ((self.depth.len() + self.bottom.len() + self.depth2.len() + self.bottom2.len())
             * std::mem::size_of::<f32>()) as u64
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn map(depth: Vec<f32>) -> DepthMap {
-        let frame =
-            LightFrame { origin: Vec3::ZERO, x: Vec3::X, y: Vec3::Y, z: Vec3::Z, half_size: Vec2::ONE };
-        DepthMap::from_depths(frame, Vec2::splat(-1.0), 0.5, 4, depth)
-    }
-
-    /// The min-depth pyramid is built from the first layer and bounds the hidden one: a
-    /// hidden layer given above the first is moved down to it, and is empty where the first
-    /// is (region shrinking and block culling rely on it).
-    #[test]
-    fn the_hidden_layer_never_lies_above_the_first() {
-        let mut depth = vec![2.0f32; 16];
-        depth[5] = f32::INFINITY;
-        let m = map(depth.clone()).with_hidden_layer(vec![1.0; 16], vec![1.5; 16]);
-        for k in 0..16 {
-            assert!(m.depth2[k] >= m.depth[k] && m.bottom2[k] >= m.depth2[k], "pixel {k}");
-        }
-        assert_eq!(m.depth2[5], f32::INFINITY);
-        assert_eq!(m.min_depth([0, 0], [3, 3]), 2.0);
-        let below = map(depth).with_hidden_layer(vec![3.0; 16], vec![3.5; 16]);
-        assert_eq!((below.depth2[0], below.bottom2[0]), (3.0, 3.5));
-    }
-
-    #[test]
-    #[should_panic(expected = "NaN depth")]
-    fn a_nan_depth_is_refused() {
-        let mut depth = vec![2.0f32; 16];
-        depth[3] = f32::NAN;
-        map(depth);
-    }
-
-    /// A 20 x 20 floor under a 1 x 1 light 2 up, with a 0.2 x 0.2 card 0.5 over it if
-    /// `card`, and `n` x `n` visible floor points 0.1 apart from `corner` (x, z).
-    fn floor_scene(card: bool, n: usize, corner: [f32; 2]) -> (Scene, RectLight, Vec<VisiblePoint>) {
-        use glam::DVec3;
-        use renderer::{Camera, gltf_load::Geometry};
-        use std::time::Duration;
-        let mut g = Geometry::default();
-        g.add_quad(DVec3::ZERO, DVec3::new(20.0, 0.0, 0.0), DVec3::new(0.0, 0.0, -20.0), [0.5; 3]);
-        if card {
-            g.add_quad(
-                DVec3::new(0.3, 0.5, 0.0),
-                DVec3::new(0.2, 0.0, 0.0),
-                DVec3::new(0.0, 0.0, -0.2),
-                [0.5; 3],
-            );
-        }
-        let light = RectLight::new(Vec3::new(0.0, 2.0, 0.0), Vec3::X, Vec3::Z, Vec3::ONE);
-        let camera = Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
-        let scene = Scene::build(g, vec![light], camera, DVec3::ZERO, Duration::ZERO);
-        let visible = (0..n * n)
-            .map(|k| {
-                let p = Vec3::new(corner[0] + 0.1 * (k % n) as f32, 0.0, corner[1] + 0.1 * (k / n) as f32);
-                VisiblePoint { p, n_geom: Vec3::Y, n_shading: Vec3::Y }
-            })
-            .collect();
-        (scene, light, visible)
-    }
-
-    /// 64^2 maps of the same receivers fitted to every lit one and to the shadowed ones.
-    fn both_fits(scene: &Scene, light: &RectLight, visible: &[VisiblePoint]) -> (DepthMap, DepthMap) {
-        let params = DepthMapParams::new(64);
-        let all_lit =
-            DepthMap::build(scene, light, visible, &DepthMapParams { fit_shadowed: false, ..params });
-        (all_lit, DepthMap::build(scene, light, visible, &params))
-    }
-
-    /// `fit_shadowed`: on a 20 x 20 floor seen whole, with one small card over it, the map
-    /// covers the card's shadow (every receiver whose shaft is not clear lies in it) at a
-    /// pitch far finer than a map fitted to the whole lit floor, and a floor point away from
-    /// it, clear, lies outside it (but inside the lit floor's map: the light's centre is
-    /// 43 deg above it, not grazing at the default `grazing_cos`).
-    #[test]
-    fn a_map_fitted_to_the_shadowed_receivers_covers_them_finely() {
-        let (scene, light, visible) = floor_scene(true, 100, [-5.0, -5.0]);
-        let (all_lit, fitted) = both_fits(&scene, &light, &visible);
-        assert!(fitted.pitch * 4.0 < all_lit.pitch, "pitch {} against {}", fitted.pitch, all_lit.pitch);
-        let eps = scene.epsilon.eps;
-        let mut shadowed = 0;
-        for v in &visible {
-            let shaft = Shaft::new(&light, v.p, v.n_geom, eps).unwrap();
-            if !scene.shaft_clear(&shaft) {
-                shadowed += 1;
-                assert!(fitted.query_point(v.p, v.n_geom).is_some(), "{} outside", v.p);
-            }
-        }
-        assert!(shadowed > 20, "{shadowed} shadowed receivers");
-        let far = Vec3::new(1.5, 0.0, 1.5);
-        assert!(fitted.query_point(far, Vec3::Y).is_none());
-        assert!(all_lit.query_point(far, Vec3::Y).is_some());
-    }
-
-    /// With nothing that may shadow anything in view, `fit_shadowed` fits the same map as
-    /// fitting to every lit receiver.
-    #[test]
-    fn with_no_shadow_in_view_the_fit_is_the_lit_receivers_fit() {
-        let (scene, light, visible) = floor_scene(false, 50, [-3.0, -2.0]);
-        let (all_lit, fitted) = both_fits(&scene, &light, &visible);
-        assert_eq!((fitted.origin, fitted.pitch), (all_lit.origin, all_lit.pitch));
-        assert!(fitted.query_point(visible[0].p, Vec3::Y).is_some());
     }
 }

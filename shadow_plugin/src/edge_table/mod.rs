@@ -1,0 +1,316 @@
+//! `edge_table`: soft shadows by ray tracing a depth map with precomputed edge tables
+//! (Egan & Neulander, "Ray Tracing Depth Maps Using Precomputed Edge Tables", SIGGRAPH 2004
+//! sketch), with trilinear blending across masks.
+//!
+//! Because the depth map's centre of projection lies on the (planar) light and its axis is
+//! the light's normal, the normalised height at which a shadow ray crosses a pixel-frustum
+//! side depends only on the side's position relative to P's pixel, P's offset inside its
+//! pixel, P's depth and the light sample, not on P's absolute pixel (the shear invariance).
+//! So a *mask* built for one (sub-pixel offset, depth, light-sample set) serves every pixel:
+//! for each pixel of its filter region it stores the crossings of its N rays into that
+//! pixel, sorted by height, with cumulative bitmasks (bit r cleared once ray r has entered
+//! at or below that height). A query then costs one binary search and one N-bit AND per
+//! pixel of the region instead of N separate marches.
+//!
+//! The per-pixel table is the union of the pixel's (one or two) in-edges: under the
+//! solid-heightfield reading, "AND every wall and floor" reduces exactly to "AND over pixels
+//! of Below(floor height)" (technical note, section 5.4), so one search per pixel suffices.
+//!
+//! | key (`[shadows.edge_table]`) | type | default | meaning |
+//! |---|---|---|---|
+//! | `depth_map` | int | 256 | depth-map pixels per side |
+//! | `preset` | "paper" / "balanced" / "fine" | "balanced" | the starting point the other keys override |
+//! | `grid` | [int; 3] | [2, 2, 8] | masks over (sub-pixel x, sub-pixel y, depth) |
+//! | `blend` | "nearest" / "trilinear" | "nearest" | take the nearest mask, or blend the 8 (4 with one depth level) nearest masks' visibilities |
+//! | `heightfield` | "plates" / "shells" / "solid" | "plates" | how the depth map is read ([`Heightfield`]) |
+//! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
+//! | `slab_thickness` | float | 2.0 | `plates`: each floor is a slab this many pixel footprints thick |
+//! | `normal_offset` | float | 0.5 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
+//! | `hidden_layer` | bool | true | `plates`: a second depth layer, the first surface under each pixel's slab, read like the first (a ray is blocked by a slab of either) |
+//! | `closed_volumes` | bool | true | `plates`: a closed mesh is solid from its front face down to its back face (a second depth layer) |
+//! | `grazing_cos` | float | 0.5 | receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
+//! | `fit_shadowed` | bool | true | fit the map to the receivers whose shaft to the light is not clear; the others are traced (a clear shaft answers at once) |
+//! | `mirrored` | bool | true | build only the masks at sub-pixel offsets up to 1/2 and read the others as their mirror images (the same crossings, bit for bit; `paper`: false) |
+//!
+//! `samples` (`[shadows]`) is the number of rays per mask (at most 4096).
+//!
+//! ```toml
+//! [shadows]
+//! method = "edge_table"
+//! samples = 1024
+//! [shadows.edge_table]
+//! depth_map = 256
+//! grid = [2, 2, 8]
+//! blend = "nearest"
+//! heightfield = "plates"
+//! ```
+//!
+//! The rooms: this file is the plugin ([`EdgeTable`]: preparing a light's map and masks,
+//! answering queries, the counters); `params.rs` holds [`EdgeTableParams`] and its presets,
+//! `grid.rs` the grid of masks (depth levels, mirrored masks, which masks a point reads),
+//! `mask/` one mask ([`Mask`]: `build.rs` builds it, `query.rs` reads it, one function per
+//! [`Heightfield`] reading).
+
+mod grid;
+mod mask;
+mod params;
+
+pub use crate::heightfield::Heightfield;
+pub use mask::{Mask, QueryStats};
+pub use params::{Blend, EdgeTableParams, GRID_RANGE, MAX_MASKS, Preset};
+
+use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
+use crate::depth_map::DepthMap;
+use crate::fallback::{Located, MapFallback, OnMap};
+use crate::march::stop_height;
+use crate::samples;
+use glam::Vec2;
+use grid::{Layout, MaskGrid};
+use rayon::prelude::*;
+use renderer::sampling::{Rng, stream_seed};
+use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery, VisiblePoint};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The plugin: one depth map and a grid of masks per light and frame.
+pub struct EdgeTable {
+    params: EdgeTableParams,
+    samples: u32,
+    state: Option<Prepared>,
+    fallback: MapFallback,
+    lookups: AtomicU64,
+    early_outs: AtomicU64,
+    blocks_culled: AtomicU64,
+    clipped: AtomicU64,
+}
+
+struct Prepared {
+    map: DepthMap,
+    /// The masks built (all of the grid, or its mirror-image classes' representatives).
+    masks: Vec<Mask>,
+    grid: MaskGrid,
+}
+
+/// Share of receivers whose stop height the masks cover (the rest fall back to traced).
+pub const MASK_HEIGHT_QUANTILE: f64 = 0.995;
+
+impl EdgeTable {
+    pub const NAME: &'static str = "edge_table";
+
+    /// # Panics
+    /// `samples` outside 1..=4096 or a zero grid dimension (checked at the config boundary).
+    pub fn new(params: EdgeTableParams, samples: u32) -> Self {
+        assert!((1..=MAX_SAMPLES as u32).contains(&samples));
+        assert!(params.grid.iter().all(|&g| g >= 1));
+        Self {
+            params,
+            samples,
+            state: None,
+            fallback: MapFallback::new(samples),
+            lookups: AtomicU64::new(0),
+            early_outs: AtomicU64::new(0),
+            blocks_culled: AtomicU64::new(0),
+            clipped: AtomicU64::new(0),
+        }
+    }
+
+    /// Builds the masks of grid cells `built`, level k's at depth `levels[k].0` marching up
+    /// to height `levels[k].1`, in parallel, until their bytes pass `budget`.
+    ///
+    /// # Errors
+    /// The masks need more than `budget` bytes (an error naming the parameters).
+    fn build_masks(
+        &self,
+        ctx: &PrepareContext,
+        map: &DepthMap,
+        built: &[u32],
+        levels: &[(f32, f32)],
+        budget: u64,
+    ) -> Result<Vec<Mask>, ShadowError> {
+        let [gx, gy, _] = self.params.grid;
+        let n = self.samples as usize;
+        let half = map.frame.half_size;
+        let pitch = map.pitch;
+        let seed = ctx.seed;
+        let light_index = ctx.light_index as u64;
+        // Mask memory grows with grid x samples x filter-region size; a grid the machine
+        // cannot hold is refused (an error naming the parameters) rather than swapped or
+        // killed. Checked as masks are built: once the total passes the budget the rest are
+        // skipped, so the overshoot is at most one mask per thread.
+        let bytes = AtomicU64::new(0);
+        let masks: Vec<Option<Mask>> = built
+            .par_iter()
+            .map(|&m| {
+                if bytes.load(Ordering::Relaxed) > budget {
+                    return None;
+                }
+                let [ax, ay, k] = grid::coordinates(m, self.params.grid);
+                let offset = Vec2::new((ax as f32 + 0.5) / gx as f32, (ay as f32 + 0.5) / gy as f32);
+                let mut s = vec![Vec2::ZERO; n];
+                samples::stratified(
+                    &mut s,
+                    half,
+                    &mut Rng::new(stream_seed(&[seed, light_index, m as u64, 3])),
+                );
+                let (depth, h_stop) = levels[k as usize];
+                let mask = Mask::build_for(self.params.heightfield, offset, depth, s, pitch, h_stop);
+                bytes.fetch_add(mask.bytes(), Ordering::Relaxed);
+                Some(mask)
+            })
+            .collect();
+        let total = bytes.load(Ordering::Relaxed);
+        masks.into_iter().collect::<Option<Vec<Mask>>>().filter(|_| total <= budget).ok_or_else(|| {
+            ShadowError {
+                method: Self::NAME,
+                message: format!(
+                    "the masks need more than {} MiB (grid {:?} x {} samples); use a smaller grid, \
+                     fewer samples or a smaller depth map",
+                    budget >> 20,
+                    self.params.grid,
+                    self.samples
+                ),
+            }
+        })
+    }
+}
+
+/// The height masks march to: what the receivers need after region shrinking, up to its
+/// [`MASK_HEIGHT_QUANTILE`]; the few receivers that need more fall back to traced.
+fn mask_height_cap(map: &DepthMap, visible: &[VisiblePoint]) -> f32 {
+    let mut needed: Vec<f32> = visible
+        .par_iter()
+        .filter(|v| !map.grazing(v.p, v.n_geom))
+        .filter_map(|v| {
+            // Points off the map are traced and need no height (with `fit_shadowed` they
+            // are most of a wide floor).
+            map.query_point(v.p, v.n_geom)?;
+            let p = map.frame.light_from_world(v.p);
+            let mp = map.locate(p)?;
+            Some(stop_height(map.stop_depth(mp.pixel, p.z).0, p.z))
+        })
+        .collect();
+    if needed.is_empty() {
+        0.0
+    } else {
+        let q = ((needed.len() - 1) as f64 * MASK_HEIGHT_QUANTILE) as usize;
+        *needed.select_nth_unstable_by(q, f32::total_cmp).1
+    }
+}
+
+impl LightShadowing for EdgeTable {
+    fn name(&self) -> &'static str {
+        Self::NAME
+    }
+
+    /// The depth map; the depth levels; how high the masks march; the masks, within the
+    /// memory budget.
+    fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
+        self.fallback.prepare(ctx)?;
+        let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map);
+        let (levels, z_hi) = grid::depth_levels(&map, ctx.visible, self.params.grid[2]);
+        // Each mask marches far enough for the deepest point it serves, and no further than
+        // the receivers need.
+        let serve_hi = grid::serve_depths(&levels, z_hi, self.params.blend);
+        let h_cap = mask_height_cap(&map, ctx.visible);
+        let per_level: Vec<(f32, f32)> = levels
+            .iter()
+            .zip(&serve_hi)
+            .map(|(&z, &hi)| (z, stop_height(map.z_min, hi).min(h_cap)))
+            .collect();
+        let layout = Layout::new(self.params.grid, self.params.mirrored);
+        let masks = self.build_masks(ctx, &map, &layout.built, &per_level, ctx.mask_budget_bytes)?;
+        let grid = MaskGrid { dims: self.params.grid, blend: self.params.blend, levels, cells: layout.cells };
+        self.state = Some(Prepared { map, masks, grid });
+        Ok(())
+    }
+
+    fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
+        let st = self.state.as_ref().expect("prepare() runs before visibility()");
+        let map = &st.map;
+        let frame = &map.frame;
+        // Grazed points and points outside the map: traced rays answer (counted).
+        let OnMap { p, mp, z_stop, clipped } = match self.fallback.locate(map, scene, q) {
+            Located::OnMap(on_map) => on_map,
+            Located::Traced(v) => return v,
+            Located::NearerThanMap => {
+                self.early_outs.fetch_add(1, Ordering::Relaxed);
+                return 1.0;
+            }
+        };
+        // The masks must reach the region's stop height. A region reaching outside the map
+        // sees no occluder there (counted).
+        if clipped {
+            self.clipped.fetch_add(1, Ordering::Relaxed);
+        }
+        let h_stop = stop_height(z_stop, p.z);
+        let [i, j] = mp.pixel;
+        let mut chosen = [(0usize, [0i32; 2], 0.0f32); 8];
+        let count = st.grid.select(mp.offset, p.z, &mut chosen);
+        let mut visible = [0u64; MAX_WORDS];
+        let mut above = [0u64; MAX_WORDS];
+        let (mut v, mut lookups, mut early_outs, mut culled) = (0.0f32, 0u64, 0u64, 0u64);
+        for &(g, shift, w) in &chosen[..count] {
+            let (m, mirror) = st.grid.mask(g);
+            let mask = &st.masks[m as usize];
+            if h_stop > mask.h_max {
+                return self.fallback.trace(scene, q);
+            }
+            let words = bits::words(mask.samples.len());
+            let stats = mask.query_mirrored(
+                map,
+                [i + shift[0], j + shift[1]],
+                mirror,
+                p.z,
+                h_stop,
+                self.params.heightfield,
+                &mut visible,
+            );
+            lookups += stats.lookups;
+            early_outs += stats.early_out as u64;
+            culled += stats.blocks_culled;
+            let all_above = samples::above_horizon(
+                frame,
+                &mask.samples,
+                mirror.map(|m| if m { -1.0 } else { 1.0 }).into(),
+                q.p,
+                q.n_shading,
+                &mut above[..words],
+            );
+            let (n_visible, n_above) = if all_above {
+                (bits::count(&visible[..words]), mask.samples.len() as u32)
+            } else {
+                (bits::count_and(&visible[..words], &above[..words]), bits::count(&above[..words]))
+            };
+            v += w * if n_above == 0 { 1.0 } else { n_visible as f32 / n_above as f32 };
+        }
+        self.lookups.fetch_add(lookups, Ordering::Relaxed);
+        self.early_outs.fetch_add(early_outs, Ordering::Relaxed);
+        if culled > 0 {
+            self.blocks_culled.fetch_add(culled, Ordering::Relaxed);
+        }
+        v.clamp(0.0, 1.0)
+    }
+
+    fn counters(&self) -> Vec<(&'static str, u64)> {
+        let (masks, bytes, crossings, map_bytes) = match &self.state {
+            Some(st) => (
+                st.masks.len() as u64,
+                st.masks.iter().map(Mask::bytes).sum::<u64>(),
+                st.masks.iter().map(|m| m.crossings() as u64).sum::<u64>(),
+                st.map.bytes(),
+            ),
+            None => (0, 0, 0, 0),
+        };
+        let mut c = vec![
+            ("masks_built", masks),
+            ("mask_bytes", bytes),
+            ("mask_crossings", crossings),
+            ("depth_map_bytes", map_bytes),
+            ("edge_lookups", self.lookups.load(Ordering::Relaxed)),
+            ("early_outs", self.early_outs.load(Ordering::Relaxed)),
+            ("blocks_culled", self.blocks_culled.load(Ordering::Relaxed)),
+            ("regions_clipped", self.clipped.load(Ordering::Relaxed)),
+        ];
+        c.extend(self.fallback.counters());
+        c
+    }
+}
