@@ -18,6 +18,7 @@ pub mod sampling;
 pub mod scene;
 pub mod shadowing;
 pub mod shaft;
+pub mod traced;
 
 pub use camera::Camera;
 pub use config::SceneFile;
@@ -26,8 +27,6 @@ pub use light::RectLight;
 pub use method::{KeyError, MethodParams, ShadowMethod, parse_method};
 pub use render::{Frame, RenderSettings, render};
 pub use scene::{RayEpsilon, Scene, SurfaceHit};
-pub use shadowing::{
-    LightShadowing, MAX_TRACED_SAMPLES, PrepareContext, ShadowError, ShadowQuery, Traced, TracedParams,
-    Unshadowed, VisiblePoint,
-};
+pub use shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery, VisiblePoint};
 pub use shaft::Shaft;
+pub use traced::{MAX_TRACED_SAMPLES, Traced, TracedParams, Unshadowed};

@@ -343,7 +343,8 @@ mod tests {
     use crate::camera::Camera;
     use crate::gltf_load::Geometry;
     use crate::sampling::Rng;
-    use crate::shadowing::{LightShadowing, PrepareContext, ShadowQuery, Traced, TracedParams};
+    use crate::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
+    use crate::traced::{Traced, TracedParams};
     use glam::DVec3;
     use std::time::Duration;
 

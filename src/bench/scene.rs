@@ -108,7 +108,8 @@ pub(super) fn bench_scene(
     let (args, out) = (plan.args, plan.out);
     let scene = Scene::load(file, path)?;
     let (width, height) = bench_size(args, file.image.width, file.image.height);
-    let settings = RenderSettings { width, height, spp: 1, seed: args.seed };
+    let mask_budget_bytes = crate::memory::mask_budget_bytes();
+    let settings = RenderSettings { width, height, spp: 1, seed: args.seed, mask_budget_bytes };
     let scene_dir = out.join(stem);
     std::fs::create_dir_all(&scene_dir)
         .map_err(|e| SceneError::new(&scene_dir, "--out", format!("cannot create the folder: {e}")))?;

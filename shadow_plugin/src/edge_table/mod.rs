@@ -18,19 +18,21 @@
 //!
 //! | key (`[shadows.edge_table]`) | type | default | meaning |
 //! |---|---|---|---|
+//! | `preset` | "paper" / "balanced" / "fine" | "balanced" | the starting point the other keys override ([`Preset`]) |
 //! | `depth_map` | int | 256 | depth-map pixels per side |
-//! | `preset` | "paper" / "balanced" / "fine" | "balanced" | the starting point the other keys override |
 //! | `grid` | [int; 3] | [2, 2, 8] | masks over (sub-pixel x, sub-pixel y, depth) |
 //! | `blend` | "nearest" / "trilinear" | "nearest" | take the nearest mask, or blend the 8 (4 with one depth level) nearest masks' visibilities |
 //! | `heightfield` | "plates" / "shells" / "solid" | "plates" | how the depth map is read ([`Heightfield`]) |
+//! | `slab_thickness` | float | 2.0 | `plates` only: each floor is a slab this many pixel footprints thick |
 //! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
-//! | `slab_thickness` | float | 2.0 | `plates`: each floor is a slab this many pixel footprints thick |
 //! | `normal_offset` | float | 0.5 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
-//! | `hidden_layer` | bool | true | `plates`: a second depth layer, the first surface under each pixel's slab, read like the first (a ray is blocked by a slab of either) |
-//! | `closed_volumes` | bool | true | `plates`: a closed mesh is solid from its front face down to its back face (a second depth layer) |
 //! | `grazing_cos` | float | 0.5 | receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
-//! | `fit_shadowed` | bool | true | fit the map to the receivers whose shaft to the light is not clear; the others are traced (a clear shaft answers at once) |
-//! | `mirrored` | bool | true | build only the masks at sub-pixel offsets up to 1/2 and read the others as their mirror images (the same crossings, bit for bit; `paper`: false) |
+//!
+//! The same list, held to [`EdgeTableParams`] by a test: `docs/scene-keys.md`. Code-only
+//! (the bench and the accuracy example switch them; presets set them): `mirrored` (build
+//! only the masks at sub-pixel offsets up to 1/2 and read the others as mirror images; off in
+//! `paper`), and the depth map's `closed_volumes`, `hidden_layer` and `fit_shadowed`
+//! ([`DepthMapParams`](crate::DepthMapParams)).
 //!
 //! `samples` (`[shadows]`) is the number of rays per mask (at most 4096).
 //!
