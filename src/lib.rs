@@ -10,8 +10,8 @@ pub mod report;
 use crate::config::ShadowsConfig;
 use crate::report::{RunReport, Timings};
 use renderer::output::StagedFiles;
-use renderer::{RenderSettings, Scene, SceneError, SceneFile, ShadowMethod, render};
-use std::path::PathBuf;
+use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod, render};
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -78,6 +78,43 @@ pub type CliError = SceneError;
 /// it succeeds.
 pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     let t_total = Instant::now();
+    let plan = plan_render(args)?;
+    let (threads, pool) = thread_pool(args.threads, &plan.scene_path)?;
+
+    pool.install(|| {
+        let scene = Scene::load(&plan.file, &plan.scene_path)?;
+        let frame = render_frame(&plan, &scene, args.seed, args.quiet)?;
+
+        // Outputs: all staged, then committed together.
+        let mut staged = StagedFiles::default();
+        let mut outputs = stage_images(&plan, &frame, args.aov, &mut staged)?;
+        let json_path = plan.png.with_extension("json");
+        outputs.push(json_path.clone());
+        let report = build_report(&plan, args.seed, threads, &scene, &frame, &outputs, t_total);
+        let json = serde_json::to_vec_pretty(&report).expect("the report serialises");
+        let io = |e: String| SceneError::new(&plan.png, "--out", e);
+        staged.bytes(&json_path, &json).map_err(io)?;
+        staged.commit().map_err(io)?;
+        Ok(RenderOutcome { report, png: plan.png.clone() })
+    })
+}
+
+/// What to render and where: the scene file with the command line's overrides applied, all
+/// checked.
+struct RenderPlan {
+    /// The scene file's path (or `DEFAULT_SCENE_NAME`), which errors name.
+    scene_path: PathBuf,
+    file: SceneFile,
+    shadows: ShadowsConfig,
+    width: u32,
+    height: u32,
+    spp: u32,
+    png: PathBuf,
+}
+
+/// Reads the scene file and applies `args`' overrides, checking every setting before
+/// anything is loaded or rendered.
+fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
     let (scene_path, file) = match &args.scene {
         Some(p) => (p.clone(), SceneFile::load(p)?),
         None => {
@@ -86,9 +123,18 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
             (p, f)
         }
     };
-    let mut shadows = ShadowsConfig::from_table(&file.shadows, &scene_path)?;
+    let shadows = shadows_config(args, &file, &scene_path)?;
+    let (width, height, spp) = image_size(args, &file, &scene_path)?;
+    let png = png_path(args, &scene_path)?;
+    Ok(RenderPlan { scene_path, file, shadows, width, height, spp, png })
+}
+
+/// The scene file's `[shadows]` with `--shadows`, `--samples` and a code-only method
+/// override applied, validated.
+fn shadows_config(args: &RenderArgs, file: &SceneFile, scene_path: &Path) -> Result<ShadowsConfig, CliError> {
+    let mut shadows = ShadowsConfig::from_table(&file.shadows, scene_path)?;
     if let Some(m) = &args.shadows {
-        shadows.choose(m, &scene_path, "--shadows")?;
+        shadows.choose(m, scene_path, "--shadows")?;
     }
     if let Some(n) = args.samples {
         shadows.samples = n;
@@ -98,31 +144,41 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     }
     // Again after the overrides: `--shadows edge_table` may meet a sample count only `traced`
     // accepts.
-    shadows.validate(&scene_path, if args.samples.is_some() { "--samples" } else { "shadows.samples" })?;
+    shadows.validate(scene_path, if args.samples.is_some() { "--samples" } else { "shadows.samples" })?;
+    Ok(shadows)
+}
+
+/// Width, height and spp: the command line's, or else the scene file's `[image]`, checked.
+fn image_size(args: &RenderArgs, file: &SceneFile, scene_path: &Path) -> Result<(u32, u32, u32), CliError> {
     let width = args.width.unwrap_or(file.image.width);
     let height = args.height.unwrap_or(file.image.height);
     let spp = args.spp.unwrap_or(file.image.spp);
     let limit = renderer::config::MAX_IMAGE_SIDE;
     for (flag, v) in [("--width", width), ("--height", height)] {
         if v == 0 || v > limit {
-            return Err(SceneError::new(&scene_path, flag, format!("must be in 1..={limit}, got {v}")));
+            return Err(SceneError::new(scene_path, flag, format!("must be in 1..={limit}, got {v}")));
         }
     }
     // Every primary sample is kept for `prepare` (~100 bytes each): cap the product.
     if width as u64 * height as u64 * spp as u64 > MAX_PRIMARY_SAMPLES {
         return Err(SceneError::new(
-            &scene_path,
+            scene_path,
             "image.spp",
             format!("width x height x spp must be at most {MAX_PRIMARY_SAMPLES} (about 6 GB of samples)"),
         ));
     }
     if spp == 0 || spp > renderer::config::MAX_SPP {
         return Err(SceneError::new(
-            &scene_path,
+            scene_path,
             "--spp",
             format!("must be in 1..={}", renderer::config::MAX_SPP),
         ));
     }
+    Ok((width, height, spp))
+}
+
+/// The PNG to write: `--out`, or else out/<scene-stem>.png.
+fn png_path(args: &RenderArgs, scene_path: &Path) -> Result<PathBuf, CliError> {
     let png = match &args.out {
         Some(p) => p.clone(),
         None => {
@@ -134,68 +190,86 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     if png.extension().and_then(|e| e.to_str()) != Some("png") {
         return Err(SceneError::new(&png, "--out", "must name a .png file"));
     }
+    Ok(png)
+}
 
-    let (threads, pool) = thread_pool(args.threads, &scene_path)?;
+/// Renders `scene` with one of `plan`'s shadow methods per light, showing a progress bar
+/// unless `quiet`.
+fn render_frame(plan: &RenderPlan, scene: &Scene, seed: u64, quiet: bool) -> Result<Frame, CliError> {
+    let mut methods: Vec<_> = scene.lights.iter().map(|_| plan.shadows.build()).collect();
+    let mask_budget_bytes = memory::mask_budget_bytes();
+    let settings =
+        RenderSettings { width: plan.width, height: plan.height, spp: plan.spp, seed, mask_budget_bytes };
+    let bar = progress_bar(plan.height as u64, quiet);
+    let frame = render(scene, &mut methods, &settings, &|n| bar.inc(n))
+        .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))?;
+    bar.finish_and_clear();
+    Ok(frame)
+}
 
-    pool.install(|| {
-        let scene = Scene::load(&file, &scene_path)?;
-        let mut methods: Vec<_> = scene.lights.iter().map(|_| shadows.build()).collect();
-        let mask_budget_bytes = memory::mask_budget_bytes();
-        let settings = RenderSettings { width, height, spp, seed: args.seed, mask_budget_bytes };
-        let bar = progress_bar(height as u64, args.quiet);
-        let frame = render(&scene, &mut methods, &settings, &|n| bar.inc(n))
-            .map_err(|e| SceneError::new(&scene_path, "shadows", e.to_string()))?;
-        bar.finish_and_clear();
-
-        // Outputs: all staged, then committed together.
-        if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir)
-                .map_err(|e| SceneError::new(dir, "--out", format!("cannot create the folder: {e}")))?;
+/// Stages the PNG, the EXR beside it and, with `aov`, each light's visibility EXR, after
+/// creating the output folder. Returns their paths in that order.
+fn stage_images(
+    plan: &RenderPlan,
+    frame: &Frame,
+    aov: bool,
+    staged: &mut StagedFiles,
+) -> Result<Vec<PathBuf>, CliError> {
+    let (png, width, height) = (&plan.png, plan.width, plan.height);
+    if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| SceneError::new(dir, "--out", format!("cannot create the folder: {e}")))?;
+    }
+    let io = |e: String| SceneError::new(png, "--out", e);
+    let mut outputs = vec![png.clone()];
+    staged.png(png, width, height, &frame.radiance).map_err(io)?;
+    let exr = png.with_extension("exr");
+    staged.exr(&exr, width, height, &frame.radiance).map_err(io)?;
+    outputs.push(exr);
+    if aov {
+        for (k, vis) in frame.visibility.iter().enumerate() {
+            let path = png.with_extension(format!("visibility.{k}.exr"));
+            let rgb: Vec<glam::Vec3> = vis.iter().map(|&v| glam::Vec3::splat(v)).collect();
+            staged.exr(&path, width, height, &rgb).map_err(io)?;
+            outputs.push(path);
         }
-        let io = |e: String| SceneError::new(&png, "--out", e);
-        let mut staged = StagedFiles::default();
-        let mut outputs = vec![png.clone()];
-        staged.png(&png, width, height, &frame.radiance).map_err(io)?;
-        let exr = png.with_extension("exr");
-        staged.exr(&exr, width, height, &frame.radiance).map_err(io)?;
-        outputs.push(exr);
-        if args.aov {
-            for (k, vis) in frame.visibility.iter().enumerate() {
-                let path = png.with_extension(format!("visibility.{k}.exr"));
-                let rgb: Vec<glam::Vec3> = vis.iter().map(|&v| glam::Vec3::splat(v)).collect();
-                staged.exr(&path, width, height, &rgb).map_err(io)?;
-                outputs.push(path);
-            }
-        }
-        let json_path = png.with_extension("json");
-        outputs.push(json_path.clone());
-        let report = RunReport {
-            scene: scene_path.display().to_string(),
-            method: shadows.name().to_string(),
-            samples: shadows.samples,
-            width,
-            height,
-            spp,
-            threads,
-            seed: args.seed,
-            lights: scene.lights.len(),
-            triangles: scene.stats.triangles,
-            degenerate_triangles: scene.stats.degenerate_triangles,
-            timings_s: Timings {
-                load: scene.stats.load.as_secs_f64(),
-                bvh: scene.stats.bvh.as_secs_f64(),
-                shadow_prepare: frame.shadow_prepare.as_secs_f64(),
-                render: frame.render.as_secs_f64(),
-                total: t_total.elapsed().as_secs_f64(),
-            },
-            counters: frame.counters.clone(),
-            outputs: outputs.iter().map(|p| p.display().to_string()).collect(),
-        };
-        let json = serde_json::to_vec_pretty(&report).expect("the report serialises");
-        staged.bytes(&json_path, &json).map_err(io)?;
-        staged.commit().map_err(io)?;
-        Ok(RenderOutcome { report, png: png.clone() })
-    })
+    }
+    Ok(outputs)
+}
+
+/// The run's report; `outputs` lists every file written (the report last), `t_total` is
+/// when the run began.
+fn build_report(
+    plan: &RenderPlan,
+    seed: u64,
+    threads: usize,
+    scene: &Scene,
+    frame: &Frame,
+    outputs: &[PathBuf],
+    t_total: Instant,
+) -> RunReport {
+    RunReport {
+        scene: plan.scene_path.display().to_string(),
+        method: plan.shadows.name().to_string(),
+        samples: plan.shadows.samples,
+        width: plan.width,
+        height: plan.height,
+        spp: plan.spp,
+        threads,
+        seed,
+        lights: scene.lights.len(),
+        triangles: scene.stats.triangles,
+        degenerate_triangles: scene.stats.degenerate_triangles,
+        timings_s: Timings {
+            load: scene.stats.load.as_secs_f64(),
+            bvh: scene.stats.bvh.as_secs_f64(),
+            shadow_prepare: frame.shadow_prepare.as_secs_f64(),
+            render: frame.render.as_secs_f64(),
+            total: t_total.elapsed().as_secs_f64(),
+        },
+        counters: frame.counters.clone(),
+        outputs: outputs.iter().map(|p| p.display().to_string()).collect(),
+    }
 }
 
 /// The worker pool for `--threads` (default: all cores), and its size; errors name `file`.

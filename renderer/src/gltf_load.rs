@@ -62,9 +62,31 @@ pub fn load_gltf(
         .map_err(|e| fail("buffers", format!("cannot load buffer: {e}")))?;
     let doc = &gltf.document;
 
-    // Materials (only what shading and the alpha test need), with their base colour
-    // textures decoded once each.
     let material_base = geometry.materials.len() as u32;
+    load_materials(path, base, doc, &buffers, geometry)?;
+    // The glTF default material (white, opaque) for primitives without one.
+    geometry.materials.push(Material::diffuse([1.0, 1.0, 1.0]));
+    let default_material = geometry.materials.len() as u32 - 1;
+
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
+    load_nodes(path, &scene, model_from_file, material_base, default_material, &buffers, geometry)
+}
+
+/// Appends the file's materials to `geometry` (only what shading and the alpha test need),
+/// with their base colour textures decoded once each. `base` is the folder of `path`, which
+/// relative image URIs start from.
+fn load_materials(
+    path: &Path,
+    base: &Path,
+    doc: &gltf::Document,
+    buffers: &[gltf::buffer::Data],
+    geometry: &mut Geometry,
+) -> Result<(), SceneError> {
+    let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
+    // glTF image index -> slot in `geometry.textures`.
     let mut image_slots: HashMap<usize, u32> = HashMap::new();
     for m in doc.materials() {
         let key = format!("materials[{}]", m.index().unwrap_or(0));
@@ -75,42 +97,7 @@ pub fn load_gltf(
         }
         let base_color_texture = match pbr.base_color_texture() {
             None => None,
-            Some(info) => {
-                let texture = info.texture();
-                let image = texture.source();
-                let slot = match image_slots.get(&image.index()) {
-                    Some(&s) => s,
-                    None => {
-                        let data = gltf::image::Data::from_source(image.source(), Some(base), &buffers)
-                            .map_err(|e| {
-                                fail(&format!("images[{}]", image.index()), format!("cannot decode: {e}"))
-                            })?;
-                        let tex = to_rgba8(&data).ok_or_else(|| {
-                            fail(
-                                &format!("images[{}]", image.index()),
-                                format!("unsupported pixel format {:?}", data.format),
-                            )
-                        })?;
-                        geometry.textures.push(tex);
-                        let s = geometry.textures.len() as u32 - 1;
-                        image_slots.insert(image.index(), s);
-                        s
-                    }
-                };
-                let sampler = texture.sampler();
-                let transform = info.texture_transform().map_or(Affine2::IDENTITY, |t| {
-                    let (s, c) = t.rotation().sin_cos();
-                    let rotation = Mat2::from_cols(Vec2::new(c, s), Vec2::new(-s, c));
-                    let scale = Mat2::from_diagonal(Vec2::from(t.scale()));
-                    Affine2::from_mat2_translation(rotation * scale, Vec2::from(t.offset()))
-                });
-                Some(TextureRef {
-                    texture: slot,
-                    wrap_s: wrap(sampler.wrap_s()),
-                    wrap_t: wrap(sampler.wrap_t()),
-                    transform,
-                })
-            }
+            Some(info) => Some(texture_ref(path, base, &info, buffers, &mut image_slots, geometry)?),
         };
         let alpha = match m.alpha_mode() {
             gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
@@ -119,14 +106,67 @@ pub fn load_gltf(
         };
         geometry.materials.push(Material { base_color, base_color_texture, alpha });
     }
-    // The glTF default material (white, opaque) for primitives without one.
-    geometry.materials.push(Material::diffuse([1.0, 1.0, 1.0]));
-    let default_material = geometry.materials.len() as u32 - 1;
+    Ok(())
+}
 
-    let scene = doc
-        .default_scene()
-        .or_else(|| doc.scenes().next())
-        .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
+/// A material's base colour texture: its image decoded into `geometry.textures` the first
+/// time any material uses it (`image_slots` remembers where), with the sampler's wrap modes
+/// and the KHR_texture_transform, if any.
+fn texture_ref(
+    path: &Path,
+    base: &Path,
+    info: &gltf::texture::Info,
+    buffers: &[gltf::buffer::Data],
+    image_slots: &mut HashMap<usize, u32>,
+    geometry: &mut Geometry,
+) -> Result<TextureRef, SceneError> {
+    let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
+    let texture = info.texture();
+    let image = texture.source();
+    let slot = match image_slots.get(&image.index()) {
+        Some(&s) => s,
+        None => {
+            let data = gltf::image::Data::from_source(image.source(), Some(base), buffers)
+                .map_err(|e| fail(&format!("images[{}]", image.index()), format!("cannot decode: {e}")))?;
+            let tex = to_rgba8(&data).ok_or_else(|| {
+                fail(
+                    &format!("images[{}]", image.index()),
+                    format!("unsupported pixel format {:?}", data.format),
+                )
+            })?;
+            geometry.textures.push(tex);
+            let s = geometry.textures.len() as u32 - 1;
+            image_slots.insert(image.index(), s);
+            s
+        }
+    };
+    let sampler = texture.sampler();
+    let transform = info.texture_transform().map_or(Affine2::IDENTITY, |t| {
+        let (s, c) = t.rotation().sin_cos();
+        let rotation = Mat2::from_cols(Vec2::new(c, s), Vec2::new(-s, c));
+        let scale = Mat2::from_diagonal(Vec2::from(t.scale()));
+        Affine2::from_mat2_translation(rotation * scale, Vec2::from(t.offset()))
+    });
+    Ok(TextureRef {
+        texture: slot,
+        wrap_s: wrap(sampler.wrap_s()),
+        wrap_t: wrap(sampler.wrap_t()),
+        transform,
+    })
+}
+
+/// Loads the meshes of every node of `scene`, each under its world transform (the file's
+/// node transforms after `model_from_file`). Returns the first perspective camera met.
+fn load_nodes(
+    path: &Path,
+    scene: &gltf::Scene,
+    model_from_file: DMat4,
+    material_base: u32,
+    default_material: u32,
+    buffers: &[gltf::buffer::Data],
+    geometry: &mut Geometry,
+) -> Result<Option<GltfCamera>, SceneError> {
+    let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
     let mut camera = None;
     // Depth-first over the node tree; an explicit stack so deep hierarchies cannot overflow.
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, model_from_file, 0)).collect();
@@ -158,7 +198,7 @@ pub fn load_gltf(
                     world,
                     material_base,
                     default_material,
-                    &buffers,
+                    buffers,
                     geometry,
                 )?;
             }
@@ -199,11 +239,30 @@ fn load_primitive(
         .map(|info| info.texture_transform().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord()))
         .unwrap_or(0);
 
+    let vertices = read_vertices(prim, uv_set, buffers, &fail)?;
+    let corners = triangle_corners(mode, &vertices.indices);
+    push_triangles(world, &vertices, corners, &material, mat_id, geometry);
+    Ok(())
+}
+
+/// An accessor a primitive is read through: the key its errors name (after the primitive's),
+/// the accessor if the primitive has it, and the element shape and component types gltf's
+/// reader for it expects.
+type AccessorSpec<'a> = (String, Option<gltf::Accessor<'a>>, Dimensions, &'static [DataType]);
+
+/// POSITION, NORMAL, TEXCOORD_`uv_set` and the indices of `prim`, each checked (when
+/// present) by `check_accessor`. `fail` makes an error under the primitive's key.
+fn checked_accessors<'a>(
+    prim: &gltf::Primitive<'a>,
+    uv_set: u32,
+    fail: &impl Fn(&str, String) -> SceneError,
+) -> Result<[AccessorSpec<'a>; 4], SceneError> {
     // gltf's readers trust the accessors, and nothing validates these properties before
     // here: an empty accessor overflows `count - 1` (a panic in debug builds), an index
     // component type other than u8/u16/u32 hits `unreachable!`, a wrong element type is
-    // read as garbage, and data outside its buffer view reads as "no attribute".
-    let accessors: [(String, Option<gltf::Accessor>, Dimensions, &[DataType]); 4] = [
+    // read as garbage, and data outside its buffer view reads as "no attribute" (which
+    // `read_vertices` reports).
+    let accessors: [AccessorSpec<'a>; 4] = [
         (".attributes.POSITION".into(), prim.get(&Semantic::Positions), Dimensions::Vec3, &[DataType::F32]),
         (".attributes.NORMAL".into(), prim.get(&Semantic::Normals), Dimensions::Vec3, &[DataType::F32]),
         (
@@ -224,6 +283,28 @@ fn load_primitive(
             check_accessor(a, *dimensions, types).map_err(|msg| fail(k, msg))?;
         }
     }
+    Ok(accessors)
+}
+
+/// A primitive's vertex data, read and checked: positions finite, every other attribute
+/// with one element per vertex, every index naming a vertex.
+struct Vertices {
+    positions: Vec<[f32; 3]>,
+    normals: Option<Vec<[f32; 3]>>,
+    uvs: Option<Vec<[f32; 2]>>,
+    /// The file's indices, or 0..positions.len() for a primitive without them.
+    indices: Vec<u32>,
+}
+
+/// Reads `prim`'s positions, normals, texture coordinates (set `uv_set`) and indices.
+/// `fail` makes an error under the primitive's key.
+fn read_vertices(
+    prim: &gltf::Primitive,
+    uv_set: u32,
+    buffers: &[gltf::buffer::Data],
+    fail: &impl Fn(&str, String) -> SceneError,
+) -> Result<Vertices, SceneError> {
+    let accessors = checked_accessors(prim, uv_set, fail)?;
     let unreadable = |k: &str, a: &Option<gltf::Accessor>| match a {
         Some(a) => fail(
             k,
@@ -274,7 +355,13 @@ fn load_primitive(
     if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
         return Err(fail(".indices", format!("index {bad} out of range ({} vertices)", positions.len())));
     }
-    let corners: Vec<[u32; 3]> = match mode {
+    Ok(Vertices { positions, normals, uvs, indices })
+}
+
+/// The corners of each triangle of a triangle list, strip or fan (`mode`), as indices in
+/// the file's winding.
+fn triangle_corners(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
         Mode::Triangles => indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
         Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
             .map(|i| {
@@ -286,8 +373,21 @@ fn load_primitive(
             })
             .collect(),
         _ => (1..indices.len().saturating_sub(1)).map(|i| [indices[0], indices[i], indices[i + 1]]).collect(),
-    };
+    }
+}
 
+/// Appends a primitive's triangles (`corners` into `vertices`) to `geometry` in world space,
+/// counting and dropping those of zero area. Those of an emissive material (without an
+/// emissive texture) also become one emitter candidate.
+fn push_triangles(
+    world: DMat4,
+    vertices: &Vertices,
+    corners: Vec<[u32; 3]>,
+    material: &gltf::Material,
+    mat_id: u32,
+    geometry: &mut Geometry,
+) {
+    let Vertices { positions, normals, uvs, .. } = vertices;
     let normal_from_file = DMat3::from_mat4(world).inverse().transpose();
     let mirrored = world.determinant() < 0.0;
     let emissive = Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0);
@@ -310,7 +410,7 @@ fn load_primitive(
             });
             n.iter().all(|v| v.is_finite() && v.length_squared() > 0.5).then_some(n)
         });
-        let uv = match &uvs {
+        let uv = match uvs {
             Some(t) => c.map(|i| Vec2::from(t[i as usize])),
             None => [Vec2::ZERO; 3],
         };
@@ -326,7 +426,6 @@ fn load_primitive(
             double_sided: material.double_sided(),
         });
     }
-    Ok(())
 }
 
 /// Checks what gltf's accessor readers assume: at least one element (also in a sparse

@@ -58,11 +58,39 @@ pub fn render(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Frame, ShadowError> {
     assert_eq!(methods.len(), scene.lights.len(), "one shadow method per light");
-    let RenderSettings { width, height, spp, seed, mask_budget_bytes } = *settings;
-    let (w, h, spp_us) = (width as usize, height as usize, spp as usize);
+    let RenderSettings { width, height, .. } = *settings;
 
-    // Primary pass.
     let t_primary = Instant::now();
+    let hits = primary_hits(scene, settings);
+    let primary_time = t_primary.elapsed();
+
+    let t_prepare = Instant::now();
+    prepare_lights(scene, methods, &hits, settings)?;
+    let shadow_prepare = t_prepare.elapsed();
+
+    let t_shade = Instant::now();
+    let shaded = shade(scene, methods, &hits, settings, progress);
+    let render = primary_time + t_shade.elapsed();
+
+    let mut counters = BTreeMap::new();
+    counters.insert("shading_points".to_string(), shaded.shading_points);
+    counters.insert("shadow_queries".to_string(), shaded.shadow_queries);
+    for m in methods.iter() {
+        for (name, value) in m.counters() {
+            *counters.entry(name.to_string()).or_insert(0) += value;
+        }
+    }
+    let (w, h, lights) = (width as usize, height as usize, scene.lights.len());
+    let visibility =
+        (0..lights).map(|k| (0..w * h).map(|i| shaded.visibility[i * lights + k]).collect()).collect();
+    Ok(Frame { width, height, radiance: shaded.radiance, visibility, shadow_prepare, render, counters })
+}
+
+/// The primary pass: the closest hit (or none) of every sample of every pixel, at
+/// `(y * width + x) * spp + s`.
+fn primary_hits(scene: &Scene, settings: &RenderSettings) -> Vec<Option<SurfaceHit>> {
+    let RenderSettings { width, height, spp, seed, .. } = *settings;
+    let (w, h, spp_us) = (width as usize, height as usize, spp as usize);
     let mut hits: Vec<Option<SurfaceHit>> = vec![None; w * h * spp_us];
     let (sx, sy) = strata(spp);
     hits.par_chunks_mut(w * spp_us).enumerate().for_each(|(y, row)| {
@@ -82,10 +110,17 @@ pub fn render(
             }
         }
     });
-    let primary_time = t_primary.elapsed();
+    hits
+}
 
-    // Prepare every light's method with what the camera sees.
-    let t_prepare = Instant::now();
+/// Prepares every light's method with what the camera sees (every primary hit).
+fn prepare_lights(
+    scene: &Scene,
+    methods: &mut [Box<dyn LightShadowing>],
+    hits: &[Option<SurfaceHit>],
+    settings: &RenderSettings,
+) -> Result<(), ShadowError> {
+    let RenderSettings { seed, mask_budget_bytes, .. } = *settings;
     let visible: Vec<VisiblePoint> = hits
         .iter()
         .flatten()
@@ -102,17 +137,35 @@ pub fn render(
         };
         method.prepare(&ctx)?;
     }
-    drop(visible);
-    let shadow_prepare = t_prepare.elapsed();
+    Ok(())
+}
 
-    // Shading pass.
-    let t_shade = Instant::now();
+/// What the shading pass produces.
+struct Shaded {
+    /// Linear radiance per pixel, row-major.
+    radiance: Vec<Vec3>,
+    /// Per pixel, then per light: as `Frame::visibility`, interleaved.
+    visibility: Vec<f32>,
+    shading_points: u64,
+    shadow_queries: u64,
+}
+
+/// The shading pass: irradiance times visibility at every primary hit, from every light,
+/// averaged over each pixel's samples. Calls `progress(1)` per row.
+fn shade(
+    scene: &Scene,
+    methods: &[Box<dyn LightShadowing>],
+    hits: &[Option<SurfaceHit>],
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Shaded {
+    let RenderSettings { width, height, spp, seed, .. } = *settings;
+    let (w, h, spp_us) = (width as usize, height as usize, spp as usize);
     let lights = scene.lights.len();
     let mut radiance = vec![Vec3::ZERO; w * h];
     let mut visibility = vec![0.0f32; w * h * lights];
     let shading_points = AtomicU64::new(0);
     let shadow_queries = AtomicU64::new(0);
-    let methods: &[Box<dyn LightShadowing>] = methods;
     radiance.par_chunks_mut(w).zip(visibility.par_chunks_mut(w * lights.max(1))).enumerate().for_each(
         |(y, (rad_row, vis_row))| {
             let (mut points, mut queries) = (0u64, 0u64);
@@ -156,16 +209,10 @@ pub fn render(
             progress(1);
         },
     );
-    let render = primary_time + t_shade.elapsed();
-
-    let mut counters = BTreeMap::new();
-    counters.insert("shading_points".to_string(), shading_points.into_inner());
-    counters.insert("shadow_queries".to_string(), shadow_queries.into_inner());
-    for m in methods {
-        for (name, value) in m.counters() {
-            *counters.entry(name.to_string()).or_insert(0) += value;
-        }
+    Shaded {
+        radiance,
+        visibility,
+        shading_points: shading_points.into_inner(),
+        shadow_queries: shadow_queries.into_inner(),
     }
-    let visibility = (0..lights).map(|k| (0..w * h).map(|i| visibility[i * lights + k]).collect()).collect();
-    Ok(Frame { width, height, radiance, visibility, shadow_prepare, render, counters })
 }

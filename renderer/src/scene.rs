@@ -5,7 +5,7 @@
 use crate::camera::Camera;
 use crate::config::{LightDesc, SceneFile, validate_light};
 use crate::error::SceneError;
-use crate::gltf_load::{EmitterCandidate, Geometry, SourceTriangle, load_gltf};
+use crate::gltf_load::{EmitterCandidate, Geometry, GltfCamera, SourceTriangle, load_gltf};
 use crate::light::RectLight;
 use crate::material::{Material, Texture};
 use glam::{DMat4, DQuat, DVec3, Vec2, Vec3, Vec3A};
@@ -125,110 +125,17 @@ impl Scene {
     pub fn load(file: &SceneFile, scene_path: &Path) -> Result<Scene, SceneError> {
         let t0 = Instant::now();
         let mut geometry = Geometry::default();
-        let mut gltf_camera = None;
-        for (i, m) in file.model.iter().enumerate() {
-            let path = SceneFile::resolve(scene_path, &m.path);
-            if !path.is_file() {
-                return Err(SceneError::new(
-                    scene_path,
-                    format!("model[{i}].path"),
-                    format!("no such file: {}", path.display()),
-                ));
-            }
-            let model_from_file = DMat4::from_scale_rotation_translation(
-                DVec3::splat(m.scale),
-                DQuat::from_rotation_y(m.rotate_y_deg.to_radians()),
-                DVec3::from(m.translate),
-            );
-            let cam = load_gltf(&path, model_from_file, &mut geometry)?;
-            if i == 0 {
-                gltf_camera = cam;
-            }
-        }
+        let gltf_camera = load_models(file, scene_path, &mut geometry)?;
         for q in &file.quad {
             geometry.add_quad(DVec3::from(q.center), DVec3::from(q.u), DVec3::from(q.v), q.color);
         }
 
         // Bounds in f64 world space; the render space is centred on them.
-        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-        for t in &geometry.triangles {
-            for p in t.p {
-                lo = lo.min(p);
-                hi = hi.max(p);
-            }
-        }
+        let (lo, hi) = world_bounds(&geometry.triangles);
         let world_offset = if geometry.triangles.is_empty() { DVec3::ZERO } else { 0.5 * (lo + hi) };
-        let to_render = |p: DVec3| (p - world_offset).as_vec3();
 
-        // Lights: the scene file's, or else the emissive rectangles of the models.
-        let lights: Vec<RectLight> = if !file.light.is_empty() {
-            file.light
-                .iter()
-                .map(|l| {
-                    RectLight::new(
-                        to_render(DVec3::from(l.center)),
-                        DVec3::from(l.u).as_vec3(),
-                        DVec3::from(l.v).as_vec3(),
-                        Vec3::from(l.radiance),
-                    )
-                })
-                .collect()
-        } else {
-            let centre = 0.5 * (lo + hi);
-            let mut found = Vec::new();
-            for e in &geometry.emitters {
-                if let Some(desc) = rectangle_light(e, centre)
-                    && validate_light(&desc, "emitter", scene_path).is_ok()
-                {
-                    found.push(RectLight::new(
-                        to_render(DVec3::from(desc.center)),
-                        DVec3::from(desc.u).as_vec3(),
-                        DVec3::from(desc.v).as_vec3(),
-                        Vec3::from(desc.radiance),
-                    ));
-                }
-            }
-            if found.is_empty() {
-                return Err(SceneError::new(
-                    scene_path,
-                    "light",
-                    "no [[light]] given and the models have no emissive rectangles",
-                ));
-            }
-            found
-        };
-
-        let camera = if file.camera.from_gltf {
-            let Some(cam) = gltf_camera else {
-                return Err(SceneError::new(
-                    scene_path,
-                    "camera.from_gltf",
-                    format!("{} has no perspective camera", file.model[0].path.display()),
-                ));
-            };
-            let position = to_render(cam.world.transform_point3(DVec3::ZERO));
-            let forward = cam.world.transform_vector3(DVec3::NEG_Z).as_vec3();
-            let up = cam.world.transform_vector3(DVec3::Y).as_vec3();
-            if !(forward.length_squared() > 0.0 && forward.cross(up).length_squared() > 0.0) {
-                return Err(SceneError::new(
-                    scene_path,
-                    "camera.from_gltf",
-                    "the glTF camera's transform is degenerate",
-                ));
-            }
-            Camera::from_frame(position, forward, up, cam.yfov as f32)
-        } else {
-            let c = &file.camera;
-            let (Some(pos), Some(at)) = (c.position, c.look_at) else {
-                unreachable!("checked by SceneFile::validate")
-            };
-            Camera::look_at(
-                to_render(DVec3::from(pos)),
-                to_render(DVec3::from(at)),
-                DVec3::from(c.up).as_vec3(),
-                c.yfov_deg as f32,
-            )
-        };
+        let lights = scene_lights(file, &geometry, 0.5 * (lo + hi), world_offset, scene_path)?;
+        let camera = scene_camera(file, gltf_camera, world_offset, scene_path)?;
         let load = t0.elapsed();
 
         let scene = Self::build(geometry, lights, camera, world_offset, load);
@@ -440,6 +347,137 @@ impl Geometry {
         ] {
             self.triangles.push(SourceTriangle { p, n: None, uv, material });
         }
+    }
+}
+
+/// Loads every `[[model]]` into `geometry`, each scaled, turned about y and moved as its
+/// table says. Returns the first model's glTF camera, if it has one.
+fn load_models(
+    file: &SceneFile,
+    scene_path: &Path,
+    geometry: &mut Geometry,
+) -> Result<Option<GltfCamera>, SceneError> {
+    let mut gltf_camera = None;
+    for (i, m) in file.model.iter().enumerate() {
+        let path = SceneFile::resolve(scene_path, &m.path);
+        if !path.is_file() {
+            return Err(SceneError::new(
+                scene_path,
+                format!("model[{i}].path"),
+                format!("no such file: {}", path.display()),
+            ));
+        }
+        let model_from_file = DMat4::from_scale_rotation_translation(
+            DVec3::splat(m.scale),
+            DQuat::from_rotation_y(m.rotate_y_deg.to_radians()),
+            DVec3::from(m.translate),
+        );
+        let cam = load_gltf(&path, model_from_file, geometry)?;
+        if i == 0 {
+            gltf_camera = cam;
+        }
+    }
+    Ok(gltf_camera)
+}
+
+/// The (min, max) corners of the triangles' world positions; (+inf, -inf) without any.
+fn world_bounds(triangles: &[SourceTriangle]) -> (DVec3, DVec3) {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for t in triangles {
+        for p in t.p {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    (lo, hi)
+}
+
+/// The lights in render space (world minus `world_offset`): the scene file's, or else the
+/// emissive rectangles of the models (double-sided ones facing `scene_centre`, world space).
+fn scene_lights(
+    file: &SceneFile,
+    geometry: &Geometry,
+    scene_centre: DVec3,
+    world_offset: DVec3,
+    scene_path: &Path,
+) -> Result<Vec<RectLight>, SceneError> {
+    let to_render = |p: DVec3| (p - world_offset).as_vec3();
+    if !file.light.is_empty() {
+        return Ok(file
+            .light
+            .iter()
+            .map(|l| {
+                RectLight::new(
+                    to_render(DVec3::from(l.center)),
+                    DVec3::from(l.u).as_vec3(),
+                    DVec3::from(l.v).as_vec3(),
+                    Vec3::from(l.radiance),
+                )
+            })
+            .collect());
+    }
+    let mut found = Vec::new();
+    for e in &geometry.emitters {
+        if let Some(desc) = rectangle_light(e, scene_centre)
+            && validate_light(&desc, "emitter", scene_path).is_ok()
+        {
+            found.push(RectLight::new(
+                to_render(DVec3::from(desc.center)),
+                DVec3::from(desc.u).as_vec3(),
+                DVec3::from(desc.v).as_vec3(),
+                Vec3::from(desc.radiance),
+            ));
+        }
+    }
+    if found.is_empty() {
+        return Err(SceneError::new(
+            scene_path,
+            "light",
+            "no [[light]] given and the models have no emissive rectangles",
+        ));
+    }
+    Ok(found)
+}
+
+/// The camera in render space (world minus `world_offset`): the first model's glTF camera
+/// when `camera.from_gltf`, else the scene file's.
+fn scene_camera(
+    file: &SceneFile,
+    gltf_camera: Option<GltfCamera>,
+    world_offset: DVec3,
+    scene_path: &Path,
+) -> Result<Camera, SceneError> {
+    let to_render = |p: DVec3| (p - world_offset).as_vec3();
+    if file.camera.from_gltf {
+        let Some(cam) = gltf_camera else {
+            return Err(SceneError::new(
+                scene_path,
+                "camera.from_gltf",
+                format!("{} has no perspective camera", file.model[0].path.display()),
+            ));
+        };
+        let position = to_render(cam.world.transform_point3(DVec3::ZERO));
+        let forward = cam.world.transform_vector3(DVec3::NEG_Z).as_vec3();
+        let up = cam.world.transform_vector3(DVec3::Y).as_vec3();
+        if !(forward.length_squared() > 0.0 && forward.cross(up).length_squared() > 0.0) {
+            return Err(SceneError::new(
+                scene_path,
+                "camera.from_gltf",
+                "the glTF camera's transform is degenerate",
+            ));
+        }
+        Ok(Camera::from_frame(position, forward, up, cam.yfov as f32))
+    } else {
+        let c = &file.camera;
+        let (Some(pos), Some(at)) = (c.position, c.look_at) else {
+            unreachable!("checked by SceneFile::validate")
+        };
+        Ok(Camera::look_at(
+            to_render(DVec3::from(pos)),
+            to_render(DVec3::from(at)),
+            DVec3::from(c.up).as_vec3(),
+            c.yfov_deg as f32,
+        ))
     }
 }
 

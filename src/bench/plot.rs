@@ -163,14 +163,7 @@ fn chart<DB: DrawingBackend>(
     let mut front_pts: Vec<(f64, f64)> = front.iter().map(|&i| all[i]).collect();
     front_pts.sort_by(|a, b| a.0.total_cmp(&b.0));
     chart.draw_series(front_pts.iter().map(|&p| Circle::new(p, 8, BLACK.stroke_width(2))))?;
-    let mut stairs = Vec::new();
-    for (i, &p) in front_pts.iter().enumerate() {
-        if i > 0 {
-            stairs.push((p.0, front_pts[i - 1].1));
-        }
-        stairs.push(p);
-    }
-    chart.draw_series(DashedLineSeries::new(stairs, 6, 4, BLACK.stroke_width(1)))?;
+    chart.draw_series(DashedLineSeries::new(staircase(&front_pts), 6, 4, BLACK.stroke_width(1)))?;
     if text {
         chart
             .configure_series_labels()
@@ -181,6 +174,19 @@ fn chart<DB: DrawingBackend>(
             .draw()?;
     }
     Ok(())
+}
+
+/// The corners of a staircase through `points` (sorted by cost): from each point level to
+/// the next one's cost, then to it.
+fn staircase(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
+    let mut stairs = Vec::new();
+    for (i, &p) in points.iter().enumerate() {
+        if i > 0 {
+            stairs.push((p.0, points[i - 1].1));
+        }
+        stairs.push(p);
+    }
+    stairs
 }
 
 /// A log axis's tick value without float noise (0.30000000000000004 prints as 0.3).
