@@ -1,6 +1,6 @@
 //! The registry: every shadow method by name. This is the one place that knows every
 //! plugin; a method's parameters, defaults, checks and constructor live in its own file
-//! ([`renderer::MethodParams`]), so adding a method is that file plus one line here.
+//! ([`renderer::MethodParams`]), so adding a method is that file, one line here and its section in docs/scene-keys.md.
 
 use renderer::method::{default_table, parse_boxed};
 use renderer::{MethodParams, SceneError, ShadowMethod, TracedParams, Unshadowed};

@@ -155,6 +155,18 @@ fn presets_start_the_edge_table_and_keys_override_them() {
 }
 
 #[test]
+fn an_empty_table_gives_each_method_its_defaults() {
+    let (p, empty) = (Path::new("s.toml"), toml::Table::new());
+    assert_eq!(parse_method::<TracedParams>(&empty, p, "x").unwrap(), TracedParams::default());
+    assert_eq!(parse_method::<EdgeTableParams>(&empty, p, "x").unwrap(), EdgeTableParams::default());
+    assert_eq!(parse_method::<DepthMarchParams>(&empty, p, "x").unwrap(), DepthMarchParams::default());
+    let pcss = parse_method::<PcssParams>(&empty, p, "x").unwrap();
+    assert_eq!(pcss, PcssParams::default());
+    // The real-time baseline: no grazing policy, no fit to the shadowed receivers.
+    assert_eq!((pcss.depth_map.grazing_cos, pcss.depth_map.fit_shadowed), (0.0, false));
+}
+
+#[test]
 fn the_chosen_method_builds_and_the_override_keeps_its_table() {
     let mut c = shadows("method = \"none\"\nsamples = 64\n[pcss]\nblocker_samples = 8").unwrap();
     assert_eq!((c.name(), c.samples, c.build().name()), ("none", 64, "none"));

@@ -58,12 +58,11 @@ pub trait MethodParams: ShadowMethod + Serialize + DeserializeOwned + Default + 
         None
     }
 
-    /// Copies the fields the scene file cannot set (serde skips them) from `base`.
-    fn keep_code_only(&mut self, base: &Self) {
-        let _ = base;
-    }
+    /// Copies the fields the scene file cannot set (serde skips them) from `base`. Required:
+    /// a skipped field left out here would silently take its type's default, not the preset's.
+    fn keep_code_only(&mut self, base: &Self);
 
-    /// Checks what the types cannot (ranges, keys that do not apply to another choice).
+    /// Checks what the types cannot (ranges, limits across keys).
     fn validate(&self) -> Result<(), KeyError>;
 }
 
@@ -86,7 +85,11 @@ pub fn parse_method<M: MethodParams>(
             return e;
         }
         // Flattened structs do not list what they expect: the base's keys are the table's.
-        let mut keys: Vec<String> = base_table(&base).into_iter().map(|(k, _)| k).collect();
+        let mut keys: Vec<String> = base_table(&base)
+            .into_iter()
+            .map(|(k, _)| k)
+            .filter(|k| base.inapplicable(k).is_none())
+            .collect();
         keys.extend(M::CHOICE_KEYS.iter().map(|k| k.to_string()));
         keys.sort();
         let keys: Vec<String> = keys.iter().map(|k| format!("`{k}`")).collect();

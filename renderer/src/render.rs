@@ -126,6 +126,9 @@ fn prepare_lights(
         .flatten()
         .map(|hit| VisiblePoint { p: hit.p, n_geom: hit.n_geom, n_shading: hit.n_shading })
         .collect();
+    // The budget was read before the frame began: what the primary hits and the lights
+    // prepared so far hold is no longer free.
+    let mut held = std::mem::size_of_val(visible.as_slice()) as u64;
     for (k, method) in methods.iter_mut().enumerate() {
         let ctx = PrepareContext {
             scene,
@@ -133,9 +136,10 @@ fn prepare_lights(
             light_index: k,
             visible: &visible,
             seed,
-            mask_budget_bytes,
+            mask_budget_bytes: mask_budget_bytes.saturating_sub(held),
         };
         method.prepare(&ctx)?;
+        held += method.memory_bytes();
     }
     Ok(())
 }

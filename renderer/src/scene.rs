@@ -115,7 +115,7 @@ pub struct Scene {
 
 /// The BVH build preset. Bvh2 (not CwBvh): CwBvh clamps t to >= 1e-4 in world units, which
 /// misses contact occluders in millimetre-scale scenes, and it is not faster for the
-/// pixel-ordered rays we trace (see ARCHITECTURE.md and `benches/traced_shadows.rs`).
+/// pixel-ordered rays we trace (see docs/notes/2026-11-21-bvh-choice.md and `benches/traced_shadows.rs`).
 pub fn bvh_params() -> BvhBuildParams {
     BvhBuildParams::medium_build()
 }

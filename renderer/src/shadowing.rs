@@ -77,4 +77,10 @@ pub trait LightShadowing: Send + Sync {
     fn counters(&self) -> Vec<(&'static str, u64)> {
         Vec::new()
     }
+
+    /// Bytes the prepared structures hold (depth maps, masks): taken off the memory budget
+    /// of the lights prepared after this one.
+    fn memory_bytes(&self) -> u64 {
+        0
+    }
 }

@@ -34,6 +34,7 @@ impl ShadowMethod for Unshadowed {
 
 impl MethodParams for Unshadowed {
     const NAME: &'static str = Self::NAME;
+    fn keep_code_only(&mut self, _: &Self) {}
     fn validate(&self) -> Result<(), KeyError> {
         Ok(())
     }

@@ -163,6 +163,10 @@ impl LightShadowing for DepthMarch {
         bits::count_and(&visible[..w], &above[..w]) as f32 / n_above as f32
     }
 
+    fn memory_bytes(&self) -> u64 {
+        self.map.as_ref().map_or(0, DepthMap::bytes)
+    }
+
     fn counters(&self) -> Vec<(&'static str, u64)> {
         let mut c = vec![
             ("early_outs", self.early_outs.load(Ordering::Relaxed)),

@@ -1,5 +1,6 @@
-//! Depth-map shadow methods for penumbra: `edge_table` (Egan & Neulander 2004) and its
-//! per-ray baseline and oracle `depth_march`, both on one light-space depth map.
+//! Depth-map shadow methods for penumbra: `edge_table` (Egan & Neulander 2004), its per-ray
+//! baseline and oracle `depth_march`, and the real-time baseline `pcss` (Fernando 2005), all
+//! on one light-space depth map.
 
 pub mod bits;
 pub mod depth_map;

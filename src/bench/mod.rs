@@ -3,7 +3,8 @@
 //!
 //! Per scene: `none` (the cost floor, and which pixels each light reaches), the truth
 //! (`traced` at `--truth-samples`, cached: [`truth`]), then the sweep ([`sweep()`]): `traced`
-//! at N = 16, 64, 256, 1024, `depth_march`, `edge_table` over depth-map sizes, grids, blend
+//! at N = 4, 16, 64, 256, 1024 and `traced plain` (no shaft culling) at the top count,
+//! `depth_march`, `edge_table` over depth-map sizes, grids, blend
 //! modes and sample counts, and `pcss`. Every setting runs `--repeats` times; times are
 //! medians, errors come from the first run (every run gives the same bytes). The shadow
 //! cost of a run is `shadow_prepare + render - render(none)`, medians of each.

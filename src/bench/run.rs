@@ -6,9 +6,8 @@ use renderer::{Frame, RenderSettings, Scene, render};
 use std::time::Duration;
 
 /// Resets the process' peak-RSS counter (Linux: `clear_refs` 5), so the next read is the
-/// peak since now.
-/// Resets the process' peak-RSS counter and returns the resident memory now (MiB), or None
-/// where that cannot be done (not Linux).
+/// peak since now, and returns the resident memory now (MiB), or None where that cannot be
+/// done (not Linux).
 fn reset_peak_rss() -> Option<f64> {
     std::fs::write("/proc/self/clear_refs", "5").ok()?;
     status_mib("VmRSS:")

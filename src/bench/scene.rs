@@ -3,7 +3,7 @@
 
 use super::report::{Row, SceneResult, equal_error_speedup};
 use super::run::{Run, median, run_setting};
-use super::sweep::{Setting, no_costlier, none_setting};
+use super::sweep::{CostOrder, Setting, no_costlier, none_setting};
 use super::truth::Truth;
 use super::{BENCH_WIDTH, BenchArgs, QUICK_WIDTH, figures, metrics, plot, truth};
 use renderer::output::StagedFiles;
@@ -184,7 +184,7 @@ fn sweep_scene(plan: &Plan, base: &Baseline) -> Swept {
     // Per family: (rmse, label, frame) of the best setting so far.
     let mut best: Vec<(&'static str, f64, String, Frame)> = Vec::new();
     // edge_table settings whose first run took longer than --max-run-seconds.
-    let mut too_long: Vec<(u32, [u32; 3], u32, u32)> = Vec::new();
+    let mut too_long: Vec<CostOrder> = Vec::new();
     let mut skipped = Vec::new();
     for s in &plan.settings {
         if let Some(order) = s.cost

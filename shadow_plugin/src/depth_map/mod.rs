@@ -108,7 +108,7 @@ pub struct DepthMapParams {
     /// the samples above the horizon are traced; such points are a small share of most
     /// frames, but up to half of the lit points of a scene of curved surfaces lit from the
     /// side (toy-car), where they are most of the shadow cost. 0 turns it off. Measured:
-    /// ARCHITECTURE.md.
+    /// docs/notes/2026-11-21-grazing-receivers-traced.md.
     pub grazing_cos: f32,
     /// Fit the map's frustum only to receivers something may shadow: those whose shaft to
     /// the light ([`renderer::Shaft`]) is not provably clear. A receiver outside the map is
@@ -137,7 +137,7 @@ impl DepthMapParams {
 pub const DEFAULT_SLAB: f32 = 2.0;
 
 /// The default [`DepthMapParams::grazing_cos`]: 0.5, the light's centre within 30 deg of
-/// the tangent plane. Chosen by measurement (ARCHITECTURE.md): against 0.2 it lowered the
+/// the tangent plane. Chosen by measurement (docs/notes/2026-11-21-grazing-cos-0.5.md): against 0.2 it lowered the
 /// RMSE on six of seven accuracy scenes, against the same-sample and a 4096-sample truth.
 pub const DEFAULT_GRAZING_COS: f32 = 0.5;
 

@@ -15,7 +15,7 @@ pub(super) fn depth_levels(map: &DepthMap, visible: &[VisiblePoint], gz: u32) ->
     // Receivers cluster (a floor facing the light has one depth), and a mask serves a point
     // exactly only at its own depth: the ray footprints of a point at depth z read through a
     // mask built at z0 are off by z0 / z. Measured against levels at the centres of equal
-    // log-depth bins and at the range's ends: see ARCHITECTURE.md.
+    // log-depth bins and at the range's ends: see docs/notes/2026-11-21-depth-level-placement.md.
     // Grazed receivers and those outside the map are traced and take no part.
     let mut log_depths: Vec<f32> = visible
         .par_iter()

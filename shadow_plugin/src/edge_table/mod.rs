@@ -164,9 +164,9 @@ impl EdgeTable {
             ShadowError {
                 method: Self::NAME,
                 message: format!(
-                    "the masks need more than {} MiB (grid {:?} x {} samples); use a smaller grid, \
-                     fewer samples or a smaller depth map",
-                    budget >> 20,
+                    "the masks need more than the {:.1} MiB left of the memory budget (grid {:?} x {} \
+                     samples); use a smaller grid, fewer samples or a smaller depth map",
+                    budget as f64 / (1u64 << 20) as f64,
                     self.params.grid,
                     self.samples
                 ),
@@ -290,6 +290,10 @@ impl LightShadowing for EdgeTable {
             self.blocks_culled.fetch_add(culled, Ordering::Relaxed);
         }
         v.clamp(0.0, 1.0)
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        self.state.as_ref().map_or(0, |st| st.masks.iter().map(Mask::bytes).sum::<u64>() + st.map.bytes())
     }
 
     fn counters(&self) -> Vec<(&'static str, u64)> {

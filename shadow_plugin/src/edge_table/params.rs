@@ -55,12 +55,12 @@ impl EdgeTableParams {
             mirrored: false,
         }
     }
-    /// The default, chosen by measurement (docs/edge_table_accuracy.md, ARCHITECTURE.md):
+    /// The default, chosen by measurement (docs/edge_table_accuracy.md, docs/notes/2026-11-21-grid-2x2x8.md):
     /// 256^2 map, 2 x 2 x 8 masks, nearest mask, thin plates. Depth levels matter more than
     /// sub-pixel ones (a mask read at another depth sees the light scaled); against 4 x 4 x 4
     /// it has the same RMSE to within 0.0004 on six of seven scenes at under half the mask
     /// memory, and error^2 x cost 0.75x-1.0x of that grid's in the accuracy run and
-    /// 0.76x-1.03x in the bench (ARCHITECTURE.md); 8 x 8 x 4 grids and trilinear blending
+    /// 0.76x-1.03x in the bench (same note); 8 x 8 x 4 grids and trilinear blending
     /// lower the error less per unit of cost.
     pub const fn balanced() -> Self {
         Self {

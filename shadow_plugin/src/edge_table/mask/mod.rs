@@ -51,7 +51,7 @@ struct Cell {
     /// are kept apart: `Mask::own_out`). Measured against one
     /// table per side (same bits): half the searches, render + prepare 0.67x-0.91x on six of
     /// the seven accuracy scenes (toy-car, mostly traced fallbacks, 1.03x), at 1.6x-2.05x
-    /// the mask memory (ARCHITECTURE.md).
+    /// the mask memory (docs/notes/2026-11-21-per-pixel-tables.md).
     in_table: u32,
     out_table: u32,
     /// The lowest crossing into this pixel (+inf for the own pixel).
