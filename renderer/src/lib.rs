@@ -10,6 +10,7 @@ pub mod config;
 pub mod error;
 pub mod gltf_load;
 pub mod light;
+pub mod light_sampling;
 pub mod material;
 pub mod method;
 pub mod output;

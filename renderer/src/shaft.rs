@@ -267,6 +267,20 @@ pub fn clear_leaves(
     n_geom: Vec3,
     strata: (u32, u32),
 ) -> (u64, u32) {
+    clear_leaves_mapped(scene, light, p, n_geom, strata, |a, b| (a, b))
+}
+
+/// [`clear_leaves`] for samples drawn through a map of the strata square onto the light:
+/// `part(a, b)` gives a part of the light (a, b ranges) holding the image of the strata block
+/// `a x b` (e.g. [`crate::light_sampling::HorizonWarp::bounds`]).
+pub fn clear_leaves_mapped(
+    scene: &Scene,
+    light: &RectLight,
+    p: Vec3,
+    n_geom: Vec3,
+    strata: (u32, u32),
+    part: impl Fn([f32; 2], [f32; 2]) -> ([f32; 2], [f32; 2]),
+) -> (u64, u32) {
     let (nx, ny) = (strata.0 as usize, strata.1 as usize);
     let (lx, ly) = leaves_per_axis(strata);
     if lx == 0 || ly == 0 {
@@ -292,6 +306,7 @@ pub fn clear_leaves(
         }
         let a = [i0 as f32 / nx as f32, i1 as f32 / nx as f32];
         let b = [j0 as f32 / ny as f32, j1 as f32 / ny as f32];
+        let (a, b) = part(a, b);
         let Some(shaft) = Shaft::to_part(light, a, b, p, n_geom, eps) else { continue };
         tests += 1;
         if scene.shaft_clear(&shaft) {

@@ -2,6 +2,7 @@
 //! `none`, the cost floor. Both are configured like every plugin ([`crate::method`]).
 
 use crate::light::RectLight;
+use crate::light_sampling::HorizonPart;
 use crate::method::{KeyError, MethodParams, ShadowMethod};
 use crate::sampling::{Rng, strata};
 use crate::scene::Scene;
@@ -113,9 +114,9 @@ impl MethodParams for TracedParams {
     }
 }
 
-/// The ground truth: `samples` stratified, jittered points on the light, one any-hit shadow
-/// ray through the BVH to each. Samples below the shading point's horizon are not counted
-/// (they are already excluded from the irradiance).
+/// The ground truth: `samples` stratified, jittered points on the part of the light above the
+/// shading point's horizon (the part the irradiance counts: where the horizon cuts the light,
+/// the strata are warped onto that part), one any-hit shadow ray through the BVH to each.
 #[derive(Debug)]
 pub struct Traced {
     params: TracedParams,
@@ -157,8 +158,23 @@ impl LightShadowing for Traced {
         let light = self.light.as_ref().expect("prepare() runs before visibility()");
         let (nx, ny) = strata(self.params.samples);
         let eps = scene.epsilon.eps;
+        // Where the horizon cuts the light, the strata are warped onto the part above it
+        // ([`crate::light_sampling::HorizonWarp`]): every sample counts. The whole light
+        // above, or too thin a part above, keeps the plain grid (and its fallback below).
+        let warp = match HorizonPart::new(light, q.p, q.n_shading) {
+            HorizonPart::Clipped(w) => Some(w),
+            HorizonPart::Whole | HorizonPart::Degenerate => None,
+        };
         let clear = if self.params.shaft_culling {
-            let (mask, tests) = shaft::clear_leaves(scene, light, q.p, q.n_geom, (nx, ny));
+            let (mask, tests) = match &warp {
+                None => shaft::clear_leaves(scene, light, q.p, q.n_geom, (nx, ny)),
+                // A leaf's samples lie in the image of its strata block: prove the shaft to
+                // that image's bounding rectangle.
+                Some(w) => shaft::clear_leaves_mapped(scene, light, q.p, q.n_geom, (nx, ny), |a, b| {
+                    let (a, b) = w.bounds(a.map(f64::from), b.map(f64::from));
+                    (a.map(|x| x as f32), b.map(|x| x as f32))
+                }),
+            };
             self.shafts.fetch_add(tests as u64, Ordering::Relaxed);
             self.shafts_clear.fetch_add(mask.count_ones() as u64, Ordering::Relaxed);
             mask
@@ -179,11 +195,17 @@ impl LightShadowing for Traced {
         let (mut above, mut unblocked, mut traced) = (0u32, 0u32, 0u32);
         for j in 0..ny {
             for i in 0..nx {
-                let a = (i as f32 + rng.next_f32()) / nx as f32;
-                let b = (j as f32 + rng.next_f32()) / ny as f32;
+                let mut a = (i as f32 + rng.next_f32()) / nx as f32;
+                let mut b = (j as f32 + rng.next_f32()) / ny as f32;
+                if let Some(w) = &warp {
+                    let (wa, wb) = w.map(a as f64, b as f64);
+                    (a, b) = (wa as f32, wb as f32);
+                }
                 let target = light.point(a, b);
                 if q.n_shading.dot(target - q.p) <= 0.0 {
-                    continue; // below the horizon: not part of the light this point sees
+                    // Below the horizon: not part of the light this point sees. (A warped
+                    // sample is above it in f64; f32 rounding may still drop one at the cut.)
+                    continue;
                 }
                 above += 1;
                 if clear & shaft::leaf_bit(i, j, (nx, ny)) != 0 && Shaft::covers(q.p, q.n_geom, target, eps) {
@@ -200,8 +222,9 @@ impl LightShadowing for Traced {
         self.rays.fetch_add(traced as u64, Ordering::Relaxed);
         self.occluded.fetch_add((above - unblocked) as u64, Ordering::Relaxed);
         if above == 0 {
-            // The irradiance is non-zero but no sample landed above the horizon: a sliver
-            // thinner than one stratum. Too small to resolve; count it unshadowed.
+            // The irradiance is non-zero but no sample landed above the horizon: a sliver of
+            // less than MIN_CLIPPED_AREA of the light (not warped), or lost to f32 rounding.
+            // Too small to resolve; count it unshadowed.
             return 1.0;
         }
         unblocked as f32 / above as f32
