@@ -55,7 +55,7 @@ pub struct RenderArgs {
     /// Seed of every random stream.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// No progress bar and no summary on stdout.
+    /// No progress bar and no summary on stdout. Warnings and errors still go to stderr.
     #[arg(long)]
     pub quiet: bool,
     /// Code only (no flag): render with these method settings instead of the scene's, for
@@ -216,6 +216,11 @@ fn stage_images(
     staged: &mut StagedFiles,
 ) -> Result<Vec<PathBuf>, CliError> {
     let (png, width, height) = (&plan.png, plan.width, plan.height);
+    // A NaN or an infinity never reaches a file: refuse before anything is staged.
+    let exr = png.with_extension("exr");
+    renderer::output::check_finite(&frame.radiance).map_err(|e| {
+        SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
+    })?;
     if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| SceneError::new(dir, "--out", format!("cannot create the folder: {e}")))?;
@@ -223,7 +228,6 @@ fn stage_images(
     let io = |e: String| SceneError::new(png, "--out", e);
     let mut outputs = vec![png.clone()];
     staged.png(png, width, height, &frame.radiance).map_err(io)?;
-    let exr = png.with_extension("exr");
     staged.exr(&exr, width, height, &frame.radiance).map_err(io)?;
     outputs.push(exr);
     if aov {
@@ -269,7 +273,26 @@ fn build_report(
         },
         counters: frame.counters.clone(),
         outputs: outputs.iter().map(|p| p.display().to_string()).collect(),
+        warnings: scene.warnings.iter().chain(&frame.warnings).cloned().collect(),
     }
+}
+
+/// Makes SIGINT and SIGTERM remove every staged temporary file (`StagedFiles`) before the
+/// process exits with status 128 + the signal (130, 143), as a shell reports a signal.
+/// Call once, early in `main`.
+pub fn exit_cleanly_on_signals() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) else {
+        return; // without a handler the default action (exit, temp files left) stays
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            let removed = renderer::output::remove_staged_files();
+            let name = if signal == SIGINT { "SIGINT" } else { "SIGTERM" };
+            eprintln!("penumbra: interrupted by {name}; removed {removed} temporary file(s)");
+            std::process::exit(128 + signal);
+        }
+    });
 }
 
 /// The worker pool for `--threads` (default: all cores), and its size; errors name `file`.

@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use penumbra::bench::{BenchArgs, run_bench};
-use penumbra::{RenderArgs, run_render};
+use penumbra::{RenderArgs, exit_cleanly_on_signals, run_render};
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -27,6 +27,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    exit_cleanly_on_signals();
     let args = match cli.command {
         Some(Command::Render(a)) => a,
         Some(Command::Bench(b)) => {
@@ -45,6 +46,10 @@ fn main() -> ExitCode {
     };
     match run_render(&args) {
         Ok(outcome) => {
+            // Warnings go to stderr always; --quiet silences only the progress and summary.
+            for w in &outcome.report.warnings {
+                eprintln!("warning: {w}");
+            }
             if !args.quiet {
                 let r = &outcome.report;
                 let t = &r.timings_s;

@@ -24,10 +24,14 @@ pub struct RunReport {
     pub seed: u64,
     pub lights: usize,
     pub triangles: u64,
-    /// Zero-area triangles dropped at load.
+    /// Triangles dropped at load, for any reason (`warnings` says which).
     pub degenerate_triangles: u64,
     pub timings_s: Timings,
     pub counters: BTreeMap<String, u64>,
     /// Files written, relative to the working directory as given.
     pub outputs: Vec<String>,
+    /// One line each, as printed on stderr after `warning: `: triangles dropped and why, a
+    /// light that reaches no visible point, a camera that sees nothing (lit), geometry f32
+    /// cannot keep precise and how precise the visible part is. Empty when all is well.
+    pub warnings: Vec<String>,
 }

@@ -52,7 +52,7 @@ pub struct QuadDesc {
     /// Full edge vectors: corners are center +- u/2 +- v/2.
     pub u: [f64; 3],
     pub v: [f64; 3],
-    /// Linear albedo.
+    /// Linear albedo, each channel in [0, 1].
     #[serde(default = "default_quad_color")]
     pub color: [f32; 3],
 }
@@ -168,11 +168,14 @@ impl SceneFile {
                     return err(format!("quad[{i}].{k}"), "must be finite");
                 }
             }
-            if cross_len(q.u, q.v) <= 0.0 {
+            if spans_zero_area(q.u, q.v) {
                 return err(format!("quad[{i}].u"), "u and v span zero area");
             }
-            if !q.color.iter().all(|c| c.is_finite() && *c >= 0.0) {
-                return err(format!("quad[{i}].color"), "must be finite and >= 0");
+            if !q.color.iter().all(|c| (0.0..=1.0).contains(c)) {
+                return err(
+                    format!("quad[{i}].color"),
+                    &format!("an albedo: each channel must be in [0, 1], got {:?}", q.color),
+                );
             }
         }
         let c = &self.camera;
@@ -224,7 +227,9 @@ impl SceneFile {
     }
 }
 
-/// Checks a light rectangle: finite, non-zero area, perpendicular edges, radiance >= 0.
+/// Checks a light rectangle: finite, non-zero area, perpendicular edges, radiance >= 0, each
+/// edge a length f32 holds. (Whether f32 holds it at its distance from the camera is checked
+/// when the scene is built: `scene::light_in_render_space`.)
 pub fn validate_light(l: &LightDesc, key: &str, path: &Path) -> Result<(), SceneError> {
     let err = |k: &str, msg: &str| Err(SceneError::new(path, format!("{key}.{k}"), msg));
     for (k, v) in [("center", l.center), ("u", l.u), ("v", l.v)] {
@@ -239,7 +244,20 @@ pub fn validate_light(l: &LightDesc, key: &str, path: &Path) -> Result<(), Scene
     if lv == 0.0 {
         return err("v", "zero-length edge: the light has zero area");
     }
-    if cross_len(l.u, l.v) <= 1e-9 * lu * lv {
+    for (k, length) in [("u", lu), ("v", lv)] {
+        if !(f32::MIN_POSITIVE as f64..=f32::MAX as f64).contains(&length) {
+            return err(
+                k,
+                &format!(
+                    "the edge is {length:.3e} m long, outside what f32 holds ({:.1e} to {:.1e} m): \
+                     the light's area cannot be computed",
+                    f32::MIN_POSITIVE,
+                    f32::MAX
+                ),
+            );
+        }
+    }
+    if spans_zero_area(l.u, l.v) {
         return err("v", "parallel to u: the light has zero area");
     }
     if dot(l.u, l.v).abs() > 1e-4 * lu * lv {
@@ -332,6 +350,12 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 fn len(a: [f64; 3]) -> f64 {
     dot(a, a).sqrt()
+}
+/// Whether edge vectors `u` and `v` span no area relative to their own lengths (so a 1e-20 m
+/// quad spans some).
+fn spans_zero_area(u: [f64; 3], v: [f64; 3]) -> bool {
+    use glam::DVec3;
+    crate::scene::is_degenerate([DVec3::ZERO, DVec3::from(u), DVec3::from(v)])
 }
 fn cross_len(a: [f64; 3], b: [f64; 3]) -> f64 {
     len([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])

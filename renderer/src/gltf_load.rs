@@ -56,10 +56,12 @@ pub fn load_gltf(
     geometry: &mut Geometry,
 ) -> Result<Option<GltfCamera>, SceneError> {
     let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
-    let gltf = gltf::Gltf::open(path).map_err(|e| fail("", format!("cannot load glTF: {e}")))?;
+    let gltf = gltf::Gltf::open(path).map_err(|e| match truncated_glb(path) {
+        Some(msg) => fail("", msg),
+        None => fail("", format!("cannot load glTF: {e}")),
+    })?;
     let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
-        .map_err(|e| fail("buffers", format!("cannot load buffer: {e}")))?;
+    let buffers = load_buffers(path, base, &gltf.document, gltf.blob.clone())?;
     let doc = &gltf.document;
 
     let material_base = geometry.materials.len() as u32;
@@ -73,6 +75,76 @@ pub fn load_gltf(
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
     load_nodes(path, &scene, model_from_file, material_base, default_material, &buffers, geometry)
+}
+
+/// A .glb shorter than its header says ("the file is truncated: N of M bytes"), or `None`.
+fn truncated_glb(path: &Path) -> Option<String> {
+    use std::io::Read;
+    let mut header = [0u8; 12];
+    let mut f = std::fs::File::open(path).ok()?;
+    let actual = f.metadata().ok()?.len();
+    f.read_exact(&mut header).ok()?;
+    let declared = u32::from_le_bytes(header[8..12].try_into().ok()?) as u64;
+    (&header[0..4] == b"glTF" && actual < declared)
+        .then(|| format!("the .glb is truncated: {actual} bytes, its header declares {declared}"))
+}
+
+/// Where a buffer or image URI points on disk (relative to `base`, percent-decoded), or
+/// `None` for a `data:` URI.
+fn uri_path(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
+    if uri.starts_with("data:") {
+        return None;
+    }
+    let decoded = urlencoding::decode(uri).map_or_else(|_| uri.to_string(), |d| d.into_owned());
+    let local = decoded.strip_prefix("file://").or_else(|| decoded.strip_prefix("file:"));
+    Some(match local {
+        Some(p) => std::path::PathBuf::from(p),
+        None => base.join(decoded),
+    })
+}
+
+/// The document's buffers, each loaded on its own so that an error names the buffer and the
+/// file that failed (gltf's `import_buffers` names neither).
+fn load_buffers(
+    path: &Path,
+    base: &Path,
+    doc: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<gltf::buffer::Data>, SceneError> {
+    let mut buffers = Vec::new();
+    for buffer in doc.buffers() {
+        let i = buffer.index();
+        let (key, file) = match buffer.source() {
+            gltf::buffer::Source::Uri(uri) => {
+                (format!("buffers[{i}].uri"), uri_path(base, uri).map(|p| p.display().to_string()))
+            }
+            gltf::buffer::Source::Bin => (format!("buffers[{i}]"), None),
+        };
+        let what = file.clone().unwrap_or_else(|| "the embedded data".into());
+        let data = gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), &mut blob).map_err(
+            |e| {
+                let msg = match (&e, &file) {
+                    (gltf::Error::MissingBlob, _) => "the .glb has no binary chunk".to_string(),
+                    (gltf::Error::Io(io), Some(f)) => format!("cannot read {f}: {io}"),
+                    _ => format!("cannot load {what}: {e}"),
+                };
+                SceneError::new(path, &key, msg)
+            },
+        )?;
+        if data.len() < buffer.length() {
+            return Err(SceneError::new(
+                path,
+                format!("buffers[{i}].byteLength"),
+                format!(
+                    "{what} has {} bytes, fewer than the {} declared (truncated?)",
+                    data.len(),
+                    buffer.length()
+                ),
+            ));
+        }
+        buffers.push(data);
+    }
+    Ok(buffers)
 }
 
 /// Appends the file's materials to `geometry` (only what shading and the alpha test need),
@@ -92,8 +164,11 @@ fn load_materials(
         let key = format!("materials[{}]", m.index().unwrap_or(0));
         let pbr = m.pbr_metallic_roughness();
         let base_color = Vec4::from(pbr.base_color_factor());
-        if !base_color.is_finite() {
-            return Err(fail(&format!("{key}.pbrMetallicRoughness.baseColorFactor"), "not finite".into()));
+        if !base_color.to_array().iter().all(|c| (0.0..=1.0).contains(c)) {
+            return Err(fail(
+                &format!("{key}.pbrMetallicRoughness.baseColorFactor"),
+                format!("each channel must be in [0, 1] (an albedo), got {:?}", base_color.to_array()),
+            ));
         }
         let base_color_texture = match pbr.base_color_texture() {
             None => None,
@@ -126,8 +201,19 @@ fn texture_ref(
     let slot = match image_slots.get(&image.index()) {
         Some(&s) => s,
         None => {
-            let data = gltf::image::Data::from_source(image.source(), Some(base), buffers)
-                .map_err(|e| fail(&format!("images[{}]", image.index()), format!("cannot decode: {e}")))?;
+            let data = gltf::image::Data::from_source(image.source(), Some(base), buffers).map_err(|e| {
+                let (key, what) = match image.source() {
+                    gltf::image::Source::Uri { uri, .. } => match uri_path(base, uri) {
+                        Some(p) => (format!("images[{}].uri", image.index()), p.display().to_string()),
+                        None => (format!("images[{}].uri", image.index()), "the data URI".into()),
+                    },
+                    gltf::image::Source::View { view, .. } => (
+                        format!("images[{}].bufferView", image.index()),
+                        format!("bufferViews[{}]", view.index()),
+                    ),
+                };
+                fail(&key, format!("cannot read or decode {what}: {e}"))
+            })?;
             let tex = to_rgba8(&data).ok_or_else(|| {
                 fail(
                     &format!("images[{}]", image.index()),
@@ -400,7 +486,7 @@ fn push_triangles(
             c.swap(1, 2); // keep the winding (and so the front face) under a mirroring transform
         }
         let p = c.map(|i| world.transform_point3(DVec3::from(positions[i as usize].map(f64::from))));
-        if (p[1] - p[0]).cross(p[2] - p[0]).length_squared() == 0.0 {
+        if crate::scene::is_degenerate(p) {
             geometry.degenerate += 1;
             continue;
         }

@@ -1,9 +1,46 @@
 //! Image and report files, written all-or-nothing: each goes to a temporary file beside its
-//! destination, and only when every one is written are they renamed into place.
+//! destination, and only when every one is written are they renamed into place. Images with
+//! a non-finite value are refused. Every temporary file of the process is listed in one
+//! registry, so a signal handler can remove them ([`remove_staged_files`]).
 
 use glam::Vec3;
 use image::{ImageBuffer, ImageFormat, Rgb};
+use std::fs::File;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Every temporary file of this process not yet renamed or removed. Created (and renamed)
+/// under its lock, so [`remove_staged_files`] leaves none behind.
+static STAGED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn staged_registry() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    STAGED.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// Removes every temporary file this process has staged and not yet renamed, then keeps the
+/// registry locked for good so that no other thread can stage another: for a signal handler
+/// about to exit the process. Returns how many files it removed.
+pub fn remove_staged_files() -> usize {
+    let registry = staged_registry();
+    let mut removed = 0;
+    for tmp in registry.iter() {
+        removed += usize::from(std::fs::remove_file(tmp).is_ok());
+    }
+    std::mem::forget(registry); // the process exits next; nothing may stage after this
+    removed
+}
+
+/// An error if any value of `rgb` is not finite ("N of M values are not finite"): a NaN or
+/// an infinity never reaches an output file.
+pub fn check_finite(rgb: &[Vec3]) -> Result<(), String> {
+    let bad: usize = rgb.iter().map(|c| c.to_array().iter().filter(|v| !v.is_finite()).count()).sum();
+    if bad == 0 {
+        Ok(())
+    } else {
+        Err(format!("{bad} of {} values are not finite (inf or NaN); nothing written", 3 * rgb.len()))
+    }
+}
 
 /// Linear to sRGB-encoded 8-bit (clamped).
 pub fn encode_srgb8(linear: f32) -> u8 {
@@ -24,22 +61,46 @@ impl StagedFiles {
         path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
     }
 
-    fn stage(&mut self, path: &Path, write: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), String> {
+    /// Creates the temporary file for `path` (registered, under the registry's lock) and
+    /// writes it with `write`.
+    fn stage(
+        &mut self,
+        path: &Path,
+        write: impl FnOnce(&mut BufWriter<File>) -> Result<(), String>,
+    ) -> Result<(), String> {
         let tmp = Self::temp_for(path);
-        if let Err(e) = write(&tmp) {
-            let _ = std::fs::remove_file(&tmp);
+        let file = {
+            let mut registry = staged_registry();
+            let file = File::create(&tmp).map_err(|e| format!("{}: {e}", path.display()))?;
+            registry.push(tmp.clone());
+            file
+        };
+        self.staged.push((tmp.clone(), path.to_path_buf()));
+        let mut out = BufWriter::new(file);
+        let written = write(&mut out).and_then(|()| out.flush().map_err(|e| e.to_string()));
+        if let Err(e) = written {
+            self.unstage_last();
             return Err(format!("{}: {e}", path.display()));
         }
-        self.staged.push((tmp, path.to_path_buf()));
         Ok(())
     }
 
-    /// An sRGB 8-bit PNG of linear radiance.
+    /// Removes the last staged file (its write failed).
+    fn unstage_last(&mut self) {
+        if let Some((tmp, _)) = self.staged.pop() {
+            let mut registry = staged_registry();
+            let _ = std::fs::remove_file(&tmp);
+            registry.retain(|t| *t != tmp);
+        }
+    }
+
+    /// An sRGB 8-bit PNG of linear radiance. Refused if a value is not finite.
     pub fn png(&mut self, path: &Path, width: u32, height: u32, linear: &[Vec3]) -> Result<(), String> {
+        check_finite(linear).map_err(|e| format!("{}: {e}", path.display()))?;
         let bytes: Vec<u8> = linear.iter().flat_map(|c| c.to_array().map(encode_srgb8)).collect();
-        self.stage(path, |tmp| {
-            image::save_buffer_with_format(
-                tmp,
+        self.stage(path, |out| {
+            image::write_buffer_with_format(
+                out,
                 &bytes,
                 width,
                 height,
@@ -50,17 +111,18 @@ impl StagedFiles {
         })
     }
 
-    /// An RGB f32 OpenEXR.
+    /// An RGB f32 OpenEXR. Refused if a value is not finite.
     pub fn exr(&mut self, path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<(), String> {
+        check_finite(rgb).map_err(|e| format!("{}: {e}", path.display()))?;
         let data: Vec<f32> = rgb.iter().flat_map(|c| c.to_array()).collect();
         let img: ImageBuffer<Rgb<f32>, Vec<f32>> =
             ImageBuffer::from_raw(width, height, data).ok_or("buffer size mismatch")?;
-        self.stage(path, |tmp| img.save_with_format(tmp, ImageFormat::OpenExr).map_err(|e| e.to_string()))
+        self.stage(path, |out| img.write_to(out, ImageFormat::OpenExr).map_err(|e| e.to_string()))
     }
 
     /// Any bytes (the JSON report).
     pub fn bytes(&mut self, path: &Path, bytes: &[u8]) -> Result<(), String> {
-        self.stage(path, |tmp| std::fs::write(tmp, bytes).map_err(|e| e.to_string()))
+        self.stage(path, |out| out.write_all(bytes).map_err(|e| e.to_string()))
     }
 
     /// Renames every staged file into place.
@@ -73,7 +135,11 @@ impl StagedFiles {
         }
         while !self.staged.is_empty() {
             let (tmp, dst) = &self.staged[0];
-            std::fs::rename(tmp, dst).map_err(|e| format!("{}: {e}", dst.display()))?;
+            {
+                let mut registry = staged_registry();
+                std::fs::rename(tmp, dst).map_err(|e| format!("{}: {e}", dst.display()))?;
+                registry.retain(|t| t != tmp);
+            }
             self.staged.remove(0);
         }
         Ok(())
@@ -83,8 +149,10 @@ impl StagedFiles {
 impl Drop for StagedFiles {
     /// Files staged but never committed (an error part-way) are removed.
     fn drop(&mut self) {
+        let mut registry = staged_registry();
         for (tmp, _) in &self.staged {
             let _ = std::fs::remove_file(tmp);
+            registry.retain(|t| t != tmp);
         }
     }
 }

@@ -40,6 +40,9 @@ pub struct Frame {
     /// Wall time of the pixel loop: primary rays, shading and shadow queries.
     pub render: Duration,
     pub counters: BTreeMap<String, u64>,
+    /// One line each: what makes this image suspect (nothing hit, no light reaching what the
+    /// camera sees, visible geometry f32 cannot keep precise). See [`frame_warnings`].
+    pub warnings: Vec<String>,
 }
 
 /// Stream tags, so different uses of one pixel's seed never share random numbers.
@@ -83,7 +86,71 @@ pub fn render(
     let (w, h, lights) = (width as usize, height as usize, scene.lights.len());
     let visibility =
         (0..lights).map(|k| (0..w * h).map(|i| shaded.visibility[i * lights + k]).collect()).collect();
-    Ok(Frame { width, height, radiance: shaded.radiance, visibility, shadow_prepare, render, counters })
+    let warnings = frame_warnings(scene, &hits, &shaded.facing, &shaded.lit);
+    Ok(Frame {
+        width,
+        height,
+        radiance: shaded.radiance,
+        visibility,
+        shadow_prepare,
+        render,
+        counters,
+        warnings,
+    })
+}
+
+/// The warnings of a frame, one line each: no primary ray hits anything; light k reaches no
+/// visible point (facing: per light, the shading points with non-zero irradiance; lit: those
+/// also with non-zero visibility); no light reaches any; and, when the scene holds triangles
+/// f32 cannot keep precise, how precise the visible part is.
+pub fn frame_warnings(
+    scene: &Scene,
+    hits: &[Option<SurfaceHit>],
+    facing: &[u64],
+    lit: &[u64],
+) -> Vec<String> {
+    use crate::scene::{SHAPE_PRECISION, f32_spacing};
+    let mut warnings = Vec::new();
+    let visible = hits.iter().flatten().count();
+    if visible == 0 {
+        warnings
+            .push("the camera sees nothing: no primary ray hits any geometry (the image is black)".into());
+        return warnings;
+    }
+    for (k, (&f, &l)) in facing.iter().zip(lit).enumerate() {
+        if f == 0 {
+            warnings.push(format!(
+                "light {k} reaches no visible point: every point the camera sees is behind its emitting \
+                 side or below the light's horizon"
+            ));
+        } else if l == 0 {
+            warnings.push(format!(
+                "light {k} reaches no visible point: {f} visible point(s) face it, all fully shadowed"
+            ));
+        }
+    }
+    if !lit.is_empty() && lit.iter().all(|&l| l == 0) {
+        warnings.push(format!(
+            "the camera sees nothing lit: none of {visible} visible point(s) receives light (the image is black)"
+        ));
+    }
+    if scene.stats.imprecise_triangles > 0 {
+        // The camera is the render-space origin: |p| is the distance from it.
+        let (mut far, mut imprecise) = (0.0f64, 0u64);
+        for hit in hits.iter().flatten() {
+            let d = hit.p.as_dvec3().length();
+            far = far.max(d);
+            let t = &scene.triangles[hit.triangle as usize];
+            let size = [t.v1 - t.v0, t.v2 - t.v1, t.v0 - t.v2].iter().map(|e| e.length()).fold(0.0, f32::max);
+            imprecise += u64::from(f32_spacing(d) > size as f64 / SHAPE_PRECISION);
+        }
+        warnings.push(format!(
+            "the visible part lies within {far:.3e} m of the camera, where f32 positions are spaced {:.3e} m; \
+             {imprecise} of {visible} visible point(s) lie on triangles f32 cannot keep precise",
+            f32_spacing(far)
+        ));
+    }
+    warnings
 }
 
 /// The primary pass: the closest hit (or none) of every sample of every pixel, at
@@ -152,6 +219,10 @@ struct Shaded {
     visibility: Vec<f32>,
     shading_points: u64,
     shadow_queries: u64,
+    /// Per light: shading points with non-zero irradiance from it.
+    facing: Vec<u64>,
+    /// Per light: shading points with non-zero irradiance and visibility.
+    lit: Vec<u64>,
 }
 
 /// The shading pass: irradiance times visibility at every primary hit, from every light,
@@ -170,9 +241,12 @@ fn shade(
     let mut visibility = vec![0.0f32; w * h * lights];
     let shading_points = AtomicU64::new(0);
     let shadow_queries = AtomicU64::new(0);
+    let facing: Vec<AtomicU64> = (0..lights).map(|_| AtomicU64::new(0)).collect();
+    let lit: Vec<AtomicU64> = (0..lights).map(|_| AtomicU64::new(0)).collect();
     radiance.par_chunks_mut(w).zip(visibility.par_chunks_mut(w * lights.max(1))).enumerate().for_each(
         |(y, (rad_row, vis_row))| {
             let (mut points, mut queries) = (0u64, 0u64);
+            let (mut row_facing, mut row_lit) = (vec![0u64; lights], vec![0u64; lights]);
             for x in 0..w {
                 let pixel_index = (y * w + x) as u64;
                 let mut sum = Vec3::ZERO;
@@ -199,6 +273,8 @@ fn shade(
                         let v = methods[k].visibility(scene, &q);
                         debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", methods[k].name());
                         queries += 1;
+                        row_facing[k] += 1;
+                        row_lit[k] += u64::from(v > 0.0);
                         vis_px[k] += v;
                         sum += albedo * light.radiance * (e * v);
                     }
@@ -210,6 +286,10 @@ fn shade(
             }
             shading_points.fetch_add(points, Ordering::Relaxed);
             shadow_queries.fetch_add(queries, Ordering::Relaxed);
+            for k in 0..lights {
+                facing[k].fetch_add(row_facing[k], Ordering::Relaxed);
+                lit[k].fetch_add(row_lit[k], Ordering::Relaxed);
+            }
             progress(1);
         },
     );
@@ -218,5 +298,7 @@ fn shade(
         visibility,
         shading_points: shading_points.into_inner(),
         shadow_queries: shadow_queries.into_inner(),
+        facing: facing.into_iter().map(AtomicU64::into_inner).collect(),
+        lit: lit.into_iter().map(AtomicU64::into_inner).collect(),
     }
 }

@@ -88,7 +88,51 @@ pub struct LoadStats {
     pub load: Duration,
     pub bvh: Duration,
     pub triangles: u64,
+    /// Every triangle dropped at load: `zero_area + collapsed_in_f32 + beyond_f32_range`.
     pub degenerate_triangles: u64,
+    /// Zero area relative to the triangle's own size (repeated or collinear vertices).
+    pub zero_area: u64,
+    /// A real triangle whose f32 render-space vertices coincide or fall on a line: too small
+    /// for f32 at its distance from the camera.
+    pub collapsed_in_f32: u64,
+    /// A vertex farther from the camera than f32 can hold (3.4e38).
+    pub beyond_f32_range: u64,
+    /// Kept triangles whose f32 spacing at their distance from the camera exceeds
+    /// 1/`SHAPE_PRECISION` of their size.
+    pub imprecise_triangles: u64,
+}
+
+/// A triangle is zero-area when the sine of the angle between two of its edges is at most
+/// this: relative to its own size, so a 1e-20 m and a 1e20 m triangle are both real.
+pub const DEGENERATE_SINE: f64 = 1e-12;
+
+/// A kept triangle is flagged imprecise when f32's spacing at its distance from the camera
+/// is more than 1/`SHAPE_PRECISION` of its longest edge: its corners then move by more than
+/// 0.2% of its size, a visible step once it spans a few hundred pixels.
+pub const SHAPE_PRECISION: f64 = 256.0;
+
+/// Whether the triangle `p` has zero area relative to its own size:
+/// `|e1 x e2| <= DEGENERATE_SINE |e1| |e2|`, on edges scaled to unit size first so that
+/// neither tiny nor huge triangles under- or overflow. Non-finite corners count as degenerate.
+pub fn is_degenerate(p: [DVec3; 3]) -> bool {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let m = e1.abs().max_element().max(e2.abs().max_element());
+    if !(m > 0.0 && m.is_finite()) {
+        return true;
+    }
+    let (e1, e2) = (e1 / m, e2 / m);
+    // Edges are finite here, so neither side is NaN.
+    e1.cross(e2).length() <= DEGENERATE_SINE * e1.length() * e2.length()
+}
+
+/// The distance between neighbouring f32 values at distance `d` from the render-space origin
+/// (the camera): how precisely a position there is stored. Infinite beyond f32's range.
+pub fn f32_spacing(d: f64) -> f64 {
+    let x = (d.abs() as f32).max(f32::MIN_POSITIVE);
+    if !x.is_finite() || x == f32::MAX {
+        return f64::INFINITY;
+    }
+    (f32::from_bits(x.to_bits() + 1) - x) as f64
 }
 
 pub struct Scene {
@@ -105,12 +149,15 @@ pub struct Scene {
     pub lights: Vec<RectLight>,
     pub camera: Camera,
     pub epsilon: RayEpsilon,
-    /// World position of the render-space origin: world = render + world_offset. The scene is
-    /// recentred so that f32 keeps its precision far from the world origin.
+    /// World position of the render-space origin, the camera: world = render + world_offset.
+    /// Positions are composed in f64 and stored relative to the camera, so f32 is most precise
+    /// where the camera looks, whatever else the scene holds far away.
     pub world_offset: DVec3,
     /// Whether any material has an alpha test (lets occlusion skip the material lookup).
     pub any_alpha_test: bool,
     pub stats: LoadStats,
+    /// One line each: what the load dropped or could not keep precise (see `LoadStats`).
+    pub warnings: Vec<String>,
 }
 
 /// The BVH build preset. Bvh2 (not CwBvh): CwBvh clamps t to >= 1e-4 in world units, which
@@ -130,20 +177,25 @@ impl Scene {
             geometry.add_quad(DVec3::from(q.center), DVec3::from(q.u), DVec3::from(q.v), q.color);
         }
 
-        // Bounds in f64 world space; the render space is centred on them.
+        // Render space is centred on the camera (world, f64): f32 is most precise where the
+        // camera looks, and geometry far away cannot cost the visible part its precision.
+        let world_offset = camera_world_position(file, gltf_camera.as_ref()).unwrap_or(DVec3::ZERO);
         let (lo, hi) = world_bounds(&geometry.triangles);
-        let world_offset = if geometry.triangles.is_empty() { DVec3::ZERO } else { 0.5 * (lo + hi) };
-
-        let lights = scene_lights(file, &geometry, 0.5 * (lo + hi), world_offset, scene_path)?;
+        let mut warnings = Vec::new();
+        let lights = scene_lights(file, &geometry, 0.5 * (lo + hi), world_offset, scene_path, &mut warnings)?;
         let camera = scene_camera(file, gltf_camera, world_offset, scene_path)?;
         let load = t0.elapsed();
 
-        let scene = Self::build(geometry, lights, camera, world_offset, load);
+        let mut scene = Self::build(geometry, lights, camera, world_offset, load);
+        warnings.append(&mut scene.warnings);
+        scene.warnings = warnings;
         Ok(scene)
     }
 
     /// Builds the BVH and the BVH-ordered arrays from loaded geometry (positions in world
-    /// space, f64) and lights/camera already in render space.
+    /// space, f64) and lights/camera already in render space (world minus `world_offset`,
+    /// the camera's world position for `Scene::load`). Triangles that f32 cannot hold in
+    /// render space are dropped, counted and named in `warnings`.
     pub fn build(
         geometry: Geometry,
         lights: Vec<RectLight>,
@@ -154,18 +206,14 @@ impl Scene {
         let Geometry { triangles: source, materials, textures, degenerate, .. } = geometry;
         let mut tris = Vec::with_capacity(source.len());
         let mut shading = Vec::with_capacity(source.len());
-        let mut degenerate = degenerate;
+        let mut precision = PrecisionTally { zero_area: degenerate, ..Default::default() };
         for s in &source {
+            let Some(face) = precision.keep(s.p, world_offset) else { continue };
             let p = s.p.map(|p| (p - world_offset).as_vec3());
-            let face = (p[1] - p[0]).cross(p[2] - p[0]);
-            if face.length_squared() == 0.0 || !face.is_finite() {
-                degenerate += 1; // non-degenerate in f64 but collapsed in f32
-                continue;
-            }
-            let face = face.normalize();
             tris.push(Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() });
             shading.push(TriangleShading { n: s.n.unwrap_or([face; 3]), uv: s.uv, material: s.material });
         }
+        let warnings = precision.warnings();
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         for t in &tris {
             for v in [t.v0, t.v1, t.v2] {
@@ -199,8 +247,16 @@ impl Scene {
         };
         let bvh_time = t_bvh.elapsed();
         let any_alpha_test = materials.iter().any(|m| !matches!(m.alpha, crate::material::AlphaMode::Opaque));
-        let stats =
-            LoadStats { load, bvh: bvh_time, triangles: tris.len() as u64, degenerate_triangles: degenerate };
+        let stats = LoadStats {
+            load,
+            bvh: bvh_time,
+            triangles: tris.len() as u64,
+            degenerate_triangles: precision.zero_area + precision.collapsed + precision.out_of_range,
+            zero_area: precision.zero_area,
+            collapsed_in_f32: precision.collapsed,
+            beyond_f32_range: precision.out_of_range,
+            imprecise_triangles: precision.imprecise,
+        };
         Scene {
             triangles: tris,
             shading,
@@ -215,6 +271,7 @@ impl Scene {
             world_offset,
             any_alpha_test,
             stats,
+            warnings,
         }
     }
 
@@ -350,6 +407,103 @@ impl Geometry {
     }
 }
 
+/// What `Scene::build` learns about each triangle's precision in render space, and the
+/// warnings it makes of it.
+#[derive(Debug, Default)]
+struct PrecisionTally {
+    zero_area: u64,
+    collapsed: u64,
+    /// The nearest collapsed triangle's distance from the camera.
+    collapsed_nearest: f64,
+    out_of_range: u64,
+    imprecise: u64,
+    /// The farthest imprecise triangle's distance from the camera and its f32 spacing.
+    imprecise_farthest: (f64, f64),
+}
+
+impl PrecisionTally {
+    /// The unit face normal (render space) of the world-space triangle `p` if f32 can hold
+    /// it relative to `origin`; else `None`, with the reason counted.
+    fn keep(&mut self, p: [DVec3; 3], origin: DVec3) -> Option<Vec3> {
+        if is_degenerate(p) {
+            self.zero_area += 1; // the loaders test this too; a caller of `build` may not
+            return None;
+        }
+        let rel = p.map(|p| p - origin);
+        let distance = rel.iter().map(|r| r.length()).fold(0.0, f64::max);
+        let p32 = rel.map(|r| r.as_vec3());
+        if !p32.iter().all(|v| v.is_finite()) {
+            self.out_of_range += 1;
+            return None;
+        }
+        let q = p32.map(|v| v.as_dvec3());
+        if is_degenerate(q) {
+            if self.collapsed == 0 || distance < self.collapsed_nearest {
+                self.collapsed_nearest = distance;
+            }
+            self.collapsed += 1;
+            return None;
+        }
+        let size = [q[1] - q[0], q[2] - q[1], q[0] - q[2]].iter().map(|e| e.length()).fold(0.0, f64::max);
+        let spacing = f32_spacing(distance);
+        if spacing > size / SHAPE_PRECISION {
+            if distance > self.imprecise_farthest.0 {
+                self.imprecise_farthest = (distance, spacing);
+            }
+            self.imprecise += 1;
+        }
+        let m = (q[1] - q[0]).abs().max_element();
+        Some(((q[1] - q[0]) / m).cross((q[2] - q[0]) / m).normalize().as_vec3())
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if self.zero_area > 0 {
+            w.push(format!(
+                "{} triangle(s) dropped: zero area (repeated or collinear vertices)",
+                self.zero_area
+            ));
+        }
+        if self.collapsed > 0 {
+            let d = self.collapsed_nearest;
+            w.push(format!(
+                "{} triangle(s) dropped: too small for f32 at their distance from the camera (the nearest \
+                 {d:.3e} m away, where f32 positions are spaced {:.3e} m)",
+                self.collapsed,
+                f32_spacing(d)
+            ));
+        }
+        if self.out_of_range > 0 {
+            w.push(format!(
+                "{} triangle(s) dropped: farther from the camera than f32 can hold ({:.1e} m)",
+                self.out_of_range,
+                f32::MAX
+            ));
+        }
+        if self.imprecise > 0 {
+            let (d, s) = self.imprecise_farthest;
+            w.push(format!(
+                "{} triangle(s) too far from the camera for f32 to keep their shape: the farthest \
+                 {d:.3e} m away, where f32 positions are spaced {s:.3e} m (over 1/{SHAPE_PRECISION} of \
+                 its size); render space is centred on the camera, so nearer geometry keeps its own \
+                 precision",
+                self.imprecise
+            ));
+        }
+        w
+    }
+}
+
+/// The camera's world position: the render-space origin. `None` when the scene file asks for
+/// a glTF camera the model lacks (`scene_camera` reports that).
+fn camera_world_position(file: &SceneFile, gltf_camera: Option<&GltfCamera>) -> Option<DVec3> {
+    if file.camera.from_gltf {
+        gltf_camera.map(|c| c.world.transform_point3(DVec3::ZERO))
+    } else {
+        file.camera.position.map(DVec3::from)
+    }
+}
+
 /// Loads every `[[model]]` into `geometry`, each scaled, turned about y and moved as its
 /// table says. Returns the first model's glTF camera, if it has one.
 fn load_models(
@@ -392,41 +546,62 @@ fn world_bounds(triangles: &[SourceTriangle]) -> (DVec3, DVec3) {
     (lo, hi)
 }
 
+/// The light `l` in render space (world minus `world_offset`), or why f32 cannot hold it
+/// there: its corners must stay a real rectangle in f32 at its distance from the camera, or
+/// its irradiance could not be computed (a 1e-30 m light 2 m away is one point in f32).
+pub fn light_in_render_space(l: &LightDesc, world_offset: DVec3) -> Result<RectLight, String> {
+    let centre = DVec3::from(l.center) - world_offset;
+    let light = RectLight::new(
+        centre.as_vec3(),
+        DVec3::from(l.u).as_vec3(),
+        DVec3::from(l.v).as_vec3(),
+        Vec3::from(l.radiance),
+    );
+    let c = light.corners().map(|c| c.as_dvec3());
+    if is_degenerate([c[0], c[1], c[2]]) || is_degenerate([c[0], c[2], c[3]]) || !light.normal.is_finite() {
+        let d = centre.length();
+        return Err(format!(
+            "the light ({:.3e} x {:.3e} m) is too small for f32 at its distance from the camera \
+             ({d:.3e} m, where f32 positions are spaced {:.3e} m): its area and irradiance cannot be computed",
+            DVec3::from(l.u).length(),
+            DVec3::from(l.v).length(),
+            f32_spacing(d),
+        ));
+    }
+    Ok(light)
+}
+
 /// The lights in render space (world minus `world_offset`): the scene file's, or else the
 /// emissive rectangles of the models (double-sided ones facing `scene_centre`, world space).
+/// An emissive rectangle f32 cannot hold is skipped with a line in `warnings`.
 fn scene_lights(
     file: &SceneFile,
     geometry: &Geometry,
     scene_centre: DVec3,
     world_offset: DVec3,
     scene_path: &Path,
+    warnings: &mut Vec<String>,
 ) -> Result<Vec<RectLight>, SceneError> {
-    let to_render = |p: DVec3| (p - world_offset).as_vec3();
     if !file.light.is_empty() {
-        return Ok(file
+        return file
             .light
             .iter()
-            .map(|l| {
-                RectLight::new(
-                    to_render(DVec3::from(l.center)),
-                    DVec3::from(l.u).as_vec3(),
-                    DVec3::from(l.v).as_vec3(),
-                    Vec3::from(l.radiance),
-                )
+            .enumerate()
+            .map(|(k, l)| {
+                light_in_render_space(l, world_offset)
+                    .map_err(|msg| SceneError::new(scene_path, format!("light[{k}].u"), msg))
             })
-            .collect());
+            .collect();
     }
     let mut found = Vec::new();
     for e in &geometry.emitters {
         if let Some(desc) = rectangle_light(e, scene_centre)
             && validate_light(&desc, "emitter", scene_path).is_ok()
         {
-            found.push(RectLight::new(
-                to_render(DVec3::from(desc.center)),
-                DVec3::from(desc.u).as_vec3(),
-                DVec3::from(desc.v).as_vec3(),
-                Vec3::from(desc.radiance),
-            ));
+            match light_in_render_space(&desc, world_offset) {
+                Ok(light) => found.push(light),
+                Err(msg) => warnings.push(format!("an emissive rectangle is not a light: {msg}")),
+            }
         }
     }
     if found.is_empty() {
@@ -472,11 +647,13 @@ fn scene_camera(
         let (Some(pos), Some(at)) = (c.position, c.look_at) else {
             unreachable!("checked by SceneFile::validate")
         };
-        Ok(Camera::look_at(
+        // The view direction in f64: at 1e-20 m its f32 length would underflow.
+        let forward = (DVec3::from(at) - DVec3::from(pos)).normalize().as_vec3();
+        Ok(Camera::from_frame(
             to_render(DVec3::from(pos)),
-            to_render(DVec3::from(at)),
-            DVec3::from(c.up).as_vec3(),
-            c.yfov_deg as f32,
+            forward,
+            DVec3::from(c.up).normalize().as_vec3(),
+            (c.yfov_deg as f32).to_radians(),
         ))
     }
 }

@@ -242,6 +242,33 @@ impl GltfBuilder {
     }
 }
 
+impl GltfBuilder {
+    /// Writes `<dir>/<stem>.glb` (a JSON chunk and a BIN chunk holding the buffer); returns
+    /// its path.
+    pub fn write_glb(&self, dir: &Path, stem: &str) -> PathBuf {
+        let mut doc = self.json("");
+        doc["buffers"][0].as_object_mut().expect("a buffer").remove("uri");
+        let mut json = serde_json::to_vec(&doc).expect("the document serialises");
+        json.resize(json.len().next_multiple_of(4), b' ');
+        let mut bin = self.bin.clone();
+        bin.resize(bin.len().next_multiple_of(4), 0);
+        let total = 12 + 8 + json.len() + 8 + bin.len();
+        let mut out = Vec::with_capacity(total);
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(total as u32).to_le_bytes());
+        out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"JSON");
+        out.extend_from_slice(&json);
+        out.extend_from_slice(&(bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&bin);
+        let path = dir.join(format!("{stem}.glb"));
+        std::fs::write(&path, out).expect("write the .glb");
+        path
+    }
+}
+
 /// A primitive object: `attributes` as (semantic, accessor) pairs.
 pub fn primitive(
     attributes: &[(&str, usize)],

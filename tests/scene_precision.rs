@@ -1,0 +1,218 @@
+//! Precision that does not depend on the scene's size: render space is centred on the camera,
+//! so geometry far from what the camera sees cannot cost the visible part its precision, and
+//! triangles are degenerate only relative to their own size.
+
+use renderer::traced::{Traced, TracedParams};
+use renderer::{LightShadowing, RenderSettings, Scene, SceneFile, render};
+use std::collections::HashSet;
+use std::path::Path;
+
+/// The default scene at a test size, with `extra` TOML appended.
+fn default_scene(extra: &str) -> Scene {
+    let text = format!("{}\n{extra}", penumbra::DEFAULT_SCENE);
+    let path = Path::new("scenes/default.toml");
+    let file = SceneFile::parse(&text, path).unwrap();
+    Scene::load(&file, path).unwrap()
+}
+
+/// One 1 m quad, facing up, at `x` metres along +x: far outside the default camera's view.
+fn far_quad(x: f64) -> String {
+    format!("[[quad]]\ncenter = [{x:e}, 0.0, 0.0]\nu = [1.0, 0.0, 0.0]\nv = [0.0, 0.0, -1.0]\n")
+}
+
+/// Traced visibility (light 0) of `scene` at 160 x 120, 64 samples, seed 7.
+fn visibility(scene: &Scene) -> Vec<f32> {
+    let mut methods: Vec<Box<dyn LightShadowing>> =
+        vec![Box::new(Traced::new(TracedParams { samples: 64, ..TracedParams::default() }))];
+    let settings = RenderSettings { width: 160, height: 120, spp: 1, seed: 7, mask_budget_bytes: 1 << 30 };
+    let frame = render(scene, &mut methods, &settings, &|_| {}).unwrap();
+    frame.visibility[0].clone()
+}
+
+fn triangle_bits(scene: &Scene) -> HashSet<[u32; 9]> {
+    scene
+        .triangles
+        .iter()
+        .map(|t| {
+            let v = [t.v0, t.v1, t.v2].map(|v| v.to_array().map(f32::to_bits));
+            [v[0][0], v[0][1], v[0][2], v[1][0], v[1][1], v[1][2], v[2][0], v[2][1], v[2][2]]
+        })
+        .collect()
+}
+
+/// The user's measurement: one 1 m quad out of view at 10^4..10^8 m changed the default
+/// image (by up to 27/255 at 10^4 m, black at 10^8 m). Render space is the camera's now, so
+/// the visible triangles are stored bit for bit as without the quad, and the traced
+/// visibility is the same bits: the bound is 0 (the BVH differs, but traced visibility does
+/// not depend on BVH order and shaft culling is exact).
+///
+/// The ray epsilon is still 1e-5 x the scene's diagonal, which the far quad stretches (0.1 m
+/// at 10^4 m): that rule is being replaced on its own branch, so here each scene renders with
+/// the epsilon of the scene without the quad; `far_quad_with_its_own_epsilon` checks the rest.
+#[test]
+fn a_far_quad_out_of_view_changes_nothing_visible() {
+    let base = default_scene("");
+    let base_bits = triangle_bits(&base);
+    let base_vis = visibility(&base);
+    assert!(base_vis.iter().filter(|&&v| v > 0.0 && v < 1.0).count() > 500, "the test image has penumbrae");
+    for x in [1e4, 1e6, 1e8] {
+        let mut scene = default_scene(&far_quad(x));
+        assert!(triangle_bits(&scene).is_superset(&base_bits), "at {x:e} m: visible triangles moved");
+        scene.epsilon = base.epsilon;
+        let vis = visibility(&scene);
+        let max = vis.iter().zip(&base_vis).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+        assert_eq!(max, 0.0, "far quad at {x:e} m changes the traced visibility by {max}");
+    }
+}
+
+/// As above with the scene's own epsilon rule: passes once the ray epsilon no longer grows
+/// with the scene's extent (branch `origin`). The tolerance is the traced noise of 64
+/// samples where the epsilon moves an origin: 1e-5 of a pixel's visibility on average.
+#[test]
+#[ignore = "needs the scale-free ray epsilon (branch origin): today eps = 1e-5 x the diagonal"]
+fn far_quad_with_its_own_epsilon() {
+    let base_vis = visibility(&default_scene(""));
+    for x in [1e4, 1e6, 1e8] {
+        let vis = visibility(&default_scene(&far_quad(x)));
+        let mean =
+            vis.iter().zip(&base_vis).map(|(a, b)| (a - b).abs() as f64).sum::<f64>() / vis.len() as f64;
+        assert!(mean < 1e-5, "far quad at {x:e} m: mean visibility difference {mean}");
+    }
+}
+
+/// At 10^8 m a 1 m quad is below f32's spacing there (8 m) even relative to the camera: it
+/// is dropped, counted and named in a warning with the spacing; at 10^6 m it is kept and
+/// flagged imprecise (spacing 0.0625 m, over 1/256 of its size) with the precision of the
+/// visible part beside it.
+#[test]
+fn far_geometry_is_counted_and_warned_about_with_its_precision() {
+    let base = default_scene("");
+    assert!(base.warnings.is_empty(), "{:?}", base.warnings);
+    assert_eq!(base.stats.degenerate_triangles, 0);
+
+    let near = default_scene(&far_quad(1e4));
+    assert_eq!(near.stats.triangles, base.stats.triangles + 2);
+    assert!(near.warnings.is_empty(), "1 m at 10^4 m is kept to 1e-3 m: {:?}", near.warnings);
+
+    let mid = default_scene(&far_quad(1e6));
+    assert_eq!((mid.stats.triangles, mid.stats.imprecise_triangles), (base.stats.triangles + 2, 2));
+    let w = mid.warnings.join("\n");
+    assert!(w.contains("2 triangle(s) too far from the camera") && w.contains("6.250e-2 m"), "{w}");
+
+    let far = default_scene(&far_quad(1e8));
+    assert_eq!((far.stats.triangles, far.stats.collapsed_in_f32), (base.stats.triangles, 2));
+    assert_eq!(far.stats.degenerate_triangles, 2);
+    let w = far.warnings.join("\n");
+    assert!(w.contains("2 triangle(s) dropped: too small for f32") && w.contains("8.000e0 m"), "{w}");
+
+    // The render adds how precise the visible part is.
+    let mut methods: Vec<Box<dyn LightShadowing>> = vec![Box::new(renderer::Unshadowed {})];
+    let settings = RenderSettings { width: 32, height: 24, spp: 1, seed: 0, mask_budget_bytes: 1 << 30 };
+    let frame = render(&mid, &mut methods, &settings, &|_| {}).unwrap();
+    let line = frame.warnings.iter().find(|w| w.starts_with("the visible part")).expect("a precision line");
+    // The farthest visible point is the back wall's corner, 6.3 m away: spacing 2^-21 m.
+    assert!(line.contains(", where f32 positions are spaced 4.768e-7 m; 0 of 768 visible"), "{line}");
+}
+
+/// A scene of one floor quad, a card and a light, every length scaled by `s`, camera too.
+fn scaled_scene(s: f64) -> String {
+    format!(
+        r#"
+[camera]
+position = [0.0, {cy:e}, {cz:e}]
+look_at = [0.0, 0.0, 0.0]
+[image]
+width = 40
+height = 30
+[[quad]]
+center = [0.0, 0.0, 0.0]
+u = [{f:e}, 0.0, 0.0]
+v = [0.0, 0.0, {nf:e}]
+[[quad]]
+center = [0.0, {h:e}, 0.0]
+u = [{c:e}, 0.0, 0.0]
+v = [0.0, 0.0, {nc:e}]
+[[light]]
+center = [0.0, {ly:e}, 0.0]
+u = [{l:e}, 0.0, 0.0]
+v = [0.0, 0.0, {l:e}]
+radiance = [1.0, 1.0, 1.0]
+"#,
+        cy = 2.0 * s,
+        cz = 3.0 * s,
+        f = 4.0 * s,
+        nf = -4.0 * s,
+        h = 0.5 * s,
+        c = 0.5 * s,
+        nc = -0.5 * s,
+        ly = 1.5 * s,
+        l = 0.5 * s,
+    )
+    .replace("v = [0.0, 0.0, ", "v = [0.0, 0.0, ")
+}
+
+fn load_text(text: &str) -> Result<Scene, renderer::SceneError> {
+    let path = Path::new("scaled.toml");
+    Scene::load(&SceneFile::parse(text, path)?, path)
+}
+
+/// A 1e-20 m and a 1e20 m scene are real geometry: all four triangles kept, none dropped,
+/// no warning (each triangle is precise relative to its own size, the camera being as near
+/// as the scene is small).
+#[test]
+fn tiny_and_huge_triangles_are_kept() {
+    for s in [1e-20, 1.0, 1e20] {
+        let scene = load_text(&scaled_scene(s)).unwrap_or_else(|e| panic!("scale {s:e}: {e}"));
+        assert_eq!((scene.stats.triangles, scene.stats.degenerate_triangles), (4, 0), "scale {s:e}");
+        assert!(scene.warnings.is_empty(), "scale {s:e}: {:?}", scene.warnings);
+        assert!(scene.lights[0].normal.is_finite() && scene.lights[0].normal.y < -0.99, "scale {s:e}");
+    }
+}
+
+/// Rendering them: the visibility at 1e-20 and 1e20 equals the unit scene's (same bits up to
+/// f32 rounding: the tolerance is 1/64, one of 64 light samples flipping at an edge). Today
+/// the Möller-Trumbore determinant under- or overflows f32 at these scales, so nothing is
+/// hit: the intersection is being made robust on its own branch (`origin`).
+#[test]
+#[ignore = "needs the scale-robust triangle intersection (branch origin)"]
+fn tiny_and_huge_scenes_render_as_the_unit_scene() {
+    let vis = |s: f64| visibility(&load_text(&scaled_scene(s)).unwrap());
+    let unit = vis(1.0);
+    assert!(unit.iter().any(|&v| v > 0.0));
+    for s in [1e-20, 1e20] {
+        let v = vis(s);
+        let bad = v.iter().zip(&unit).filter(|(a, b)| (*a - *b).abs() > 1.0 / 64.0).count();
+        assert!(bad <= unit.len() / 100, "scale {s:e}: {bad} pixels differ");
+    }
+}
+
+/// A zero-area triangle is dropped and named; a quad too small for f32 at its distance from
+/// the camera is dropped and named with the spacing there.
+#[test]
+fn dropped_triangles_are_warned_about() {
+    let unit = scaled_scene(1.0);
+    // 1e-20 m wide, 0.5 m from the camera's origin-centred space: f32 spacing there is 6e-8 m.
+    let tiny =
+        format!("{unit}\n[[quad]]\ncenter = [0.0, 0.1, 0.0]\nu = [1e-20, 0.0, 0.0]\nv = [0.0, 0.0, 1e-20]\n");
+    let scene = load_text(&tiny).unwrap();
+    assert_eq!((scene.stats.triangles, scene.stats.collapsed_in_f32), (4, 2));
+    assert!(
+        scene.warnings[0].starts_with("2 triangle(s) dropped: too small for f32"),
+        "{:?}",
+        scene.warnings
+    );
+
+    let mut geometry = renderer::gltf_load::Geometry::default();
+    let p = glam::DVec3::new(0.0, 0.0, -1.0);
+    geometry.triangles.push(renderer::gltf_load::SourceTriangle {
+        p: [p, p + glam::DVec3::X, p + 2.0 * glam::DVec3::X],
+        n: None,
+        uv: [glam::Vec2::ZERO; 3],
+        material: 0,
+    });
+    geometry.materials.push(renderer::material::Material::diffuse([0.5; 3]));
+    let camera = renderer::Camera::look_at(glam::Vec3::ZERO, -glam::Vec3::Z, glam::Vec3::Y, 40.0);
+    let scene = Scene::build(geometry, vec![], camera, glam::DVec3::ZERO, Default::default());
+    assert_eq!((scene.stats.triangles, scene.stats.zero_area), (0, 1));
+    assert_eq!(scene.warnings, ["1 triangle(s) dropped: zero area (repeated or collinear vertices)"]);
+}
