@@ -124,7 +124,12 @@ fn prepare_lights(
     let visible: Vec<VisiblePoint> = hits
         .iter()
         .flatten()
-        .map(|hit| VisiblePoint { p: hit.p, n_geom: hit.n_geom, n_shading: hit.n_shading })
+        .map(|hit| VisiblePoint {
+            p: hit.p,
+            p_error: hit.p_error,
+            n_geom: hit.n_geom,
+            n_shading: hit.n_shading,
+        })
         .collect();
     for (k, method) in methods.iter_mut().enumerate() {
         let ctx = PrepareContext {
@@ -187,6 +192,7 @@ fn shade(
                         }
                         let q = ShadowQuery {
                             p: hit.p,
+                            p_error: hit.p_error,
                             n_geom: hit.n_geom,
                             n_shading: hit.n_shading,
                             pixel: [x as u32, y as u32],
