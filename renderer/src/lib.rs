@@ -13,6 +13,8 @@ pub mod light;
 pub mod material;
 pub mod method;
 pub mod output;
+#[cfg(test)]
+mod precision_tests;
 pub mod ray_origin;
 pub mod render;
 pub mod sampling;

@@ -107,28 +107,8 @@ pub fn segment_ray(origin: Vec3, end: Vec3) -> Option<Ray> {
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
-
-    /// The rejected alternative, kept to measure against (not used by the renderer):
-    /// Wächter & Binder, Ray Tracing Gems ch. 6, "A Fast and Robust Method for Avoiding
-    /// Self-Intersection". Each component moves `256 n_i` ulps (integer arithmetic on its
-    /// bits), or `n_i / 65536` absolute within 1/32 of the origin. No error bound is carried.
-    pub(crate) fn wachter_binder_origin(p: Vec3, n_geom: Vec3, toward: Vec3) -> Vec3 {
-        const ORIGIN: f32 = 1.0 / 32.0;
-        const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-        const INT_SCALE: f32 = 256.0;
-        let n = if toward.dot(n_geom) < 0.0 { -n_geom } else { n_geom };
-        let one = |p: f32, n: f32| {
-            if p.abs() < ORIGIN {
-                return p + FLOAT_SCALE * n;
-            }
-            let of = (INT_SCALE * n) as i32;
-            let of = if p < 0.0 { -of } else { of };
-            f32::from_bits((p.to_bits() as i32 + of) as u32)
-        };
-        Vec3::new(one(p.x, n.x), one(p.y, n.y), one(p.z, n.z))
-    }
 
     #[test]
     fn gamma_matches_its_definition() {

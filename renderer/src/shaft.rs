@@ -3,8 +3,8 @@
 //!
 //! The shaft of a shading point is the convex hull of its ray origin (the apex: exactly the
 //! origin [`crate::ray_origin::offset_origin`] gives every ray above the tangent plane) and
-//! the light's rectangle, cut by a plane halfway between the surface point and the apex (the
-//! receiver's own surface lies below it) and by a plane just in front of the light (rays stop
+//! the light's rectangle, cut by a plane just under the apex, parallel to the tangent plane
+//! (the receiver's own surface lies below it) and by a plane just in front of the light (rays stop
 //! short of the light: [`crate::ray_origin::shadow_ray`]). Every shadow ray from the point to
 //! a light sample that [`covers`] accepts lies inside it. If no triangle can meet the shaft,
 //! each of those rays is unblocked, and a traced query gives the same bits without tracing
@@ -22,11 +22,12 @@
 //! vertices, plus the light points' error bound (3x: sample, corner, the target's offset),
 //! the rays' rounding (gamma(16) of their length) and gamma(32) of the scene's largest
 //! coordinate for the intersector's acceptance rounding: slack there only costs culling.
-//! The two faces that must separate touching geometry take no such slack: the cut sits at
-//! half the apex's height `h_o` over the point, and covered rays end at least `h_o` above it
-//! ([`covers`]); the light's face sits at half of `SHADOW_EPSILON x` the apex's height over
-//! the light's plane, where every ray ends at least that far in front (it stops that
-//! fraction of its length short of a point not behind the plane).
+//! The two faces that must separate touching geometry take no such slack: the cut sits just
+//! under the apex (its height `h_o` over the point less gamma(8) of it, the rounding of
+//! `h_o`), and covered rays end at least `h_o` above the point ([`covers`]); the light's face
+//! sits at half of `SHADOW_EPSILON x` the apex's height over the light's plane, where every
+//! ray ends at least that far in front (it stops that fraction of its length short of a
+//! point not behind the plane).
 
 use crate::light::RectLight;
 use crate::ray_origin::{SHADOW_EPSILON, gamma, offset_origin};
@@ -57,17 +58,20 @@ impl Face {
     }
 }
 
-/// Whether the shadow ray from surface point `p` (error `p_error`, geometric normal
+/// Whether the shadow ray from surface point `p` (origin `origin`, geometric normal
 /// `n_geom`) to light point `target` (error bound `target_error`) lies in that point's
-/// shafts: its target is at least the apex's height `h_o` over the tangent plane, plus the
-/// target's error (twice: its rounding and its offset) and gamma(16) of its distance, so the
-/// whole ray stays above the cut at `h_o / 2`.
+/// shafts: its target is at least the apex's height `h_o` over the tangent plane (and
+/// `2 SHADOW_EPSILON` of it: the ray stops that fraction short), plus the target's error
+/// (twice: its rounding and its offset) and gamma(16) of its distance, so the whole ray stays
+/// at or above `h_o`, over the cut.
 #[inline]
 pub fn covers(p: Vec3, origin: Vec3, n_geom: Vec3, target: Vec3, target_error: Vec3) -> bool {
     let h_o = n_geom.dot(origin - p);
     let w = target - p;
     n_geom.dot(w)
-        >= h_o + 2.0 * (target_error.x + target_error.y + target_error.z) + gamma(16) * w.abs().element_sum()
+        >= h_o * (1.0 + 2.0 * SHADOW_EPSILON)
+            + 2.0 * (target_error.x + target_error.y + target_error.z)
+            + gamma(16) * w.abs().element_sum()
 }
 
 /// Whether [`covers`] accepts every point of `light` (within its error bound), from its
@@ -79,7 +83,9 @@ pub fn covers_light(p: Vec3, origin: Vec3, n_geom: Vec3, light: &RectLight) -> b
     let e = light.max_point_error().element_sum();
     let far = corners.iter().map(|&c| (c - p).abs().element_sum()).fold(0.0, f32::max) + e;
     let h_o = n_geom.dot(origin - p);
-    corners.iter().all(|&c| n_geom.dot(c - p) >= h_o + 4.0 * e + gamma(16) * far)
+    corners
+        .iter()
+        .all(|&c| n_geom.dot(c - p) >= h_o * (1.0 + 2.0 * SHADOW_EPSILON) + 4.0 * e + gamma(16) * far)
 }
 
 /// The shaft from one shading point to a rectangular light (see the module docs).
@@ -190,12 +196,14 @@ impl Shaft {
         // The light's plane: inside is n_light . (x - centre) >= in_front.
         let n_light = Vec3A::from(light.normal);
         faces[4] = Face { normal: -n_light, anchor: light.center.into(), offset: -in_front, slack: 0.0 };
-        // The cut: n_geom . (x - p) >= h_o / 2. Covered rays stay at >= h_o / 2 ([`covers`]);
-        // the receiver's own surface lies at most its error bound from p, below h_o / 2
-        // wherever p's actual rounding is below half its bound (almost always; where not,
-        // the shaft is not clear and the rays are traced).
+        // The cut: n_geom . (x - p) >= h_o (1 - gamma(8)), under the apex by more than the
+        // rounding of h_o (o - p is exact, its dot product has terms of one sign). Covered
+        // rays stay at >= h_o ([`covers`]); the receiver's own surface lies at most its error
+        // bound from p, h_o, plus its tilt against n_geom: below the cut unless p's actual
+        // rounding nearly reaches its bound or the triangle is large against its distance
+        // from the origin (then the shaft is not clear and the rays are traced).
         let n = Vec3A::from(n_geom);
-        faces[5] = Face { normal: -n, anchor: p.into(), offset: -0.5 * h_o, slack: 0.0 };
+        faces[5] = Face { normal: -n, anchor: p.into(), offset: -(h_o * (1.0 - gamma(8))), slack: 0.0 };
         Some(Shaft { faces, vertices: hull, slack })
     }
 
