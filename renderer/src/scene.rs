@@ -184,7 +184,7 @@ impl Scene {
         let e2 = tri.v2 - tri.v0;
         let pvec = ray.direction.cross(e2);
         let det = e1.dot(pvec);
-        if !(det.abs() >= f32::MIN_POSITIVE) || !det.is_finite() {
+        if !(f32::MIN_POSITIVE..=f32::MAX).contains(&det.abs()) {
             return Self::intersect_f64(tri, ray);
         }
         let inv = 1.0 / det;
