@@ -10,6 +10,7 @@
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Vec3, Vec3A};
 use obvhs::{BvhBuildParams, ray::Ray};
+use renderer::ray_origin::shadow_ray;
 use renderer::sampling::{Rng, stream_seed};
 use renderer::{Scene, SceneFile};
 use std::hint::black_box;
@@ -40,7 +41,10 @@ fn shadow_rays(scene: &Scene) -> Vec<Ray> {
                 if hit.n_shading.dot(target - hit.p) <= 0.0 {
                     continue;
                 }
-                if let Some(r) = scene.epsilon.shadow_ray(hit.p, hit.n_geom, target) {
+                let target_error = light.point_error(a, b);
+                if let Some(r) =
+                    shadow_ray(hit.p, hit.p_error, hit.n_geom, target, target_error, light.normal)
+                {
                     rays.push(r);
                 }
             }

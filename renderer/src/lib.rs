@@ -14,6 +14,9 @@ pub mod light_sampling;
 pub mod material;
 pub mod method;
 pub mod output;
+#[cfg(test)]
+mod precision_tests;
+pub mod ray_origin;
 pub mod render;
 pub mod sampling;
 pub mod scene;
@@ -27,7 +30,7 @@ pub use error::SceneError;
 pub use light::RectLight;
 pub use method::{KeyError, MethodParams, ShadowMethod, parse_method};
 pub use render::{Frame, RenderSettings, render};
-pub use scene::{RayEpsilon, Scene, SurfaceHit};
+pub use scene::{Scene, SurfaceHit};
 pub use shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery, VisiblePoint};
 pub use shaft::Shaft;
 pub use traced::{MAX_TRACED_SAMPLES, Traced, TracedParams, Unshadowed};

@@ -32,6 +32,19 @@ impl RectLight {
         self.center + (a - 0.5) * self.u + (b - 0.5) * self.v
     }
 
+    /// A bound (per component) on the f32 rounding of [`RectLight::point`]`(a, b)`: the
+    /// subtractions, two products and two sums, gamma(4) of the terms' magnitudes.
+    #[inline]
+    pub fn point_error(&self, a: f32, b: f32) -> Vec3 {
+        crate::ray_origin::gamma(4)
+            * (self.center.abs() + ((a - 0.5) * self.u).abs() + ((b - 0.5) * self.v).abs())
+    }
+
+    /// A bound on [`RectLight::point_error`] over the whole light.
+    pub fn max_point_error(&self) -> Vec3 {
+        self.point_error(0.0, 0.0).max(self.point_error(1.0, 1.0))
+    }
+
     /// Corners in counter-clockwise order seen from the emitting side.
     pub fn corners(&self) -> [Vec3; 4] {
         let (hu, hv) = (0.5 * self.u, 0.5 * self.v);

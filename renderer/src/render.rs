@@ -191,7 +191,12 @@ fn prepare_lights(
     let visible: Vec<VisiblePoint> = hits
         .iter()
         .flatten()
-        .map(|hit| VisiblePoint { p: hit.p, n_geom: hit.n_geom, n_shading: hit.n_shading })
+        .map(|hit| VisiblePoint {
+            p: hit.p,
+            p_error: hit.p_error,
+            n_geom: hit.n_geom,
+            n_shading: hit.n_shading,
+        })
         .collect();
     // The budget was read before the frame began: what the primary hits and the lights
     // prepared so far hold is no longer free.
@@ -265,6 +270,7 @@ fn shade(
                         }
                         let q = ShadowQuery {
                             p: hit.p,
+                            p_error: hit.p_error,
                             n_geom: hit.n_geom,
                             n_shading: hit.n_shading,
                             pixel: [x as u32, y as u32],

@@ -1,6 +1,6 @@
 //! The runtime scene: triangles in BVH order with their shading attributes, materials,
 //! textures, lights and camera; closest-hit and occlusion queries with the alpha test; and
-//! the one rule for ray origins and shadow epsilons.
+//! the hit's own error bound that the one rule for ray origins uses ([`crate::ray_origin`]).
 
 use crate::camera::Camera;
 use crate::config::{LightDesc, SceneFile, validate_light};
@@ -8,7 +8,8 @@ use crate::error::SceneError;
 use crate::gltf_load::{EmitterCandidate, Geometry, GltfCamera, SourceTriangle, load_gltf};
 use crate::light::RectLight;
 use crate::material::{Material, Texture};
-use glam::{DMat4, DQuat, DVec3, Vec2, Vec3, Vec3A};
+use crate::ray_origin::{interpolation_error, shadow_ray};
+use glam::{DMat4, DQuat, DVec3, Vec2, Vec3};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::Ray, triangle::Triangle};
 use std::path::Path;
 use std::time::{Duration, Instant};
@@ -26,7 +27,11 @@ pub struct TriangleShading {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfaceHit {
     pub t: f32,
+    /// The hit point, interpolated from the triangle's vertices (not `o + t d`).
     pub p: Vec3,
+    /// A bound on `p`'s own rounding, per component ([`interpolation_error`]): the one rule
+    /// for ray origins offsets by it ([`crate::ray_origin::offset_origin`]).
+    pub p_error: Vec3,
     /// Unit geometric normal, on the side of the incoming ray.
     pub n_geom: Vec3,
     /// Unit interpolated normal, flipped to the same side as `n_geom`.
@@ -39,47 +44,6 @@ pub struct SurfaceHit {
     /// faces, as glTF defines it). Closed meshes are entered through front faces and left
     /// through back faces, which is how a depth map tells their interiors.
     pub front_face: bool,
-}
-
-/// The scene-scaled epsilon rule for ray origins and shadow-ray ends, written once.
-///
-/// Every ray leaving a surface starts at `p + eps * n_geom` (on the side it travels to), and
-/// every shadow ray stops `eps` short of its target. `eps` is `RELATIVE` times the diagonal of
-/// the scene's bounding box: the scene is recentred at load time, so |p| never exceeds the
-/// diagonal and f32 rounding of positions is at most 2^-24 of it, ~170x below `eps`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RayEpsilon {
-    pub eps: f32,
-}
-
-impl RayEpsilon {
-    pub const RELATIVE: f32 = 1e-5;
-
-    pub fn for_extent(diagonal: f32) -> Self {
-        let diagonal = if diagonal.is_finite() && diagonal > 0.0 { diagonal } else { 1.0 };
-        Self { eps: Self::RELATIVE * diagonal }
-    }
-
-    /// Origin for a ray from surface point `p` (geometric normal `n_geom`) toward `target`.
-    #[inline]
-    pub fn origin_toward(&self, p: Vec3, n_geom: Vec3, target: Vec3) -> Vec3 {
-        let side = if n_geom.dot(target - p) >= 0.0 { 1.0 } else { -1.0 };
-        p + (side * self.eps) * n_geom
-    }
-
-    /// A shadow ray from surface point `p` to `target`, stopping `eps` short of it.
-    /// `direction` is unit length, so `t` is a distance.
-    #[inline]
-    pub fn shadow_ray(&self, p: Vec3, n_geom: Vec3, target: Vec3) -> Option<Ray> {
-        let origin = self.origin_toward(p, n_geom, target);
-        let d = target - origin;
-        let dist = d.length();
-        let tmax = dist - self.eps;
-        if tmax.is_nan() || tmax <= 0.0 {
-            return None;
-        }
-        Some(Ray::new(Vec3A::from(origin), Vec3A::from(d / dist), 0.0, tmax))
-    }
 }
 
 /// Timings and counts of a scene load.
@@ -148,7 +112,6 @@ pub struct Scene {
     pub bounds_max: Vec3,
     pub lights: Vec<RectLight>,
     pub camera: Camera,
-    pub epsilon: RayEpsilon,
     /// World position of the render-space origin, the camera: world = render + world_offset.
     /// Positions are composed in f64 and stored relative to the camera, so f32 is most precise
     /// where the camera looks, whatever else the scene holds far away.
@@ -224,16 +187,6 @@ impl Scene {
         if tris.is_empty() {
             (lo, hi) = (Vec3::ZERO, Vec3::ZERO);
         }
-        // Lights and the camera count toward the extent that scales epsilons.
-        let (mut elo, mut ehi) = (lo, hi);
-        for l in &lights {
-            for c in l.corners() {
-                elo = elo.min(c);
-                ehi = ehi.max(c);
-            }
-        }
-        let epsilon = RayEpsilon::for_extent((ehi - elo).length());
-
         let t_bvh = Instant::now();
         let bvh = if tris.is_empty() {
             None
@@ -267,7 +220,6 @@ impl Scene {
             bounds_max: hi,
             lights,
             camera,
-            epsilon,
             world_offset,
             any_alpha_test,
             stats,
@@ -276,15 +228,21 @@ impl Scene {
     }
 
     /// Möller-Trumbore with barycentrics (obvhs's `compute_barycentric` is mis-scaled, see
-    /// deps.md): returns (t, b1, b2) for a hit within [tmin, tmax].
+    /// deps.md): returns (t, b1, b2) for a hit with `tmin < t <= tmax` (strict at `tmin`: a
+    /// ray leaving a plane exactly, where the offset is zero, computes t = 0 on it).
+    ///
+    /// In f32; where the determinant is zero, subnormal or not finite (a triangle ~1e-20 or
+    /// ~1e20 across) or `t` overflows, the whole test is redone in f64 ([`Self::intersect_f64`]),
+    /// so tiny and huge triangles are hit like any other. The common path costs one more
+    /// comparison than before.
     #[inline]
     fn intersect_triangle(tri: &Triangle, ray: &Ray) -> Option<(f32, f32, f32)> {
         let e1 = tri.v1 - tri.v0;
         let e2 = tri.v2 - tri.v0;
         let pvec = ray.direction.cross(e2);
         let det = e1.dot(pvec);
-        if det == 0.0 || !det.is_finite() {
-            return None;
+        if !(f32::MIN_POSITIVE..=f32::MAX).contains(&det.abs()) {
+            return Self::intersect_f64(tri, ray);
         }
         let inv = 1.0 / det;
         let tvec = ray.origin - tri.v0;
@@ -298,7 +256,55 @@ impl Scene {
             return None;
         }
         let t = e2.dot(qvec) * inv;
-        (t >= ray.tmin && t <= ray.tmax).then_some((t, b1, b2))
+        if !t.is_finite() {
+            return Self::intersect_f64(tri, ray);
+        }
+        (t > ray.tmin && t <= ray.tmax).then_some((t, b1, b2))
+    }
+
+    /// The rare path of [`Self::intersect_triangle`]: the same test on the same f32 inputs in
+    /// f64 (products of f32 values neither overflow nor underflow there).
+    #[cold]
+    #[inline(never)]
+    fn intersect_f64(tri: &Triangle, ray: &Ray) -> Option<(f32, f32, f32)> {
+        let v0 = Vec3::from(tri.v0).as_dvec3();
+        let e1 = Vec3::from(tri.v1).as_dvec3() - v0;
+        let e2 = Vec3::from(tri.v2).as_dvec3() - v0;
+        let d = Vec3::from(ray.direction).as_dvec3();
+        let pvec = d.cross(e2);
+        let det = e1.dot(pvec);
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let tvec = Vec3::from(ray.origin).as_dvec3() - v0;
+        let b1 = tvec.dot(pvec) / det;
+        if !(0.0..=1.0).contains(&b1) {
+            return None;
+        }
+        let qvec = tvec.cross(e1);
+        let b2 = d.dot(qvec) / det;
+        if b2 < 0.0 || b1 + b2 > 1.0 {
+            return None;
+        }
+        let t = e2.dot(qvec) / det;
+        (t > ray.tmin as f64 && t <= ray.tmax as f64).then_some((t as f32, b1 as f32, b2 as f32))
+    }
+
+    /// The unit geometric normal of a triangle (its winding's side): from the f32 cross
+    /// product, or in f64 where that underflows or overflows (tiny and huge triangles).
+    #[inline]
+    fn face_normal(tri: &Triangle) -> Vec3 {
+        let n = Vec3::from((tri.v1 - tri.v0).cross(tri.v2 - tri.v0));
+        let len2 = n.length_squared();
+        if len2 >= f32::MIN_POSITIVE && len2.is_finite() {
+            return n / len2.sqrt();
+        }
+        let (v0, v1, v2) =
+            (Vec3::from(tri.v0).as_dvec3(), Vec3::from(tri.v1).as_dvec3(), Vec3::from(tri.v2).as_dvec3());
+        let n = (v1 - v0).cross(v2 - v0);
+        // Scaled first: |n| may itself underflow f64 for triangles below ~1e-150.
+        let n = n / n.abs().max_element();
+        n.normalize_or_zero().as_vec3()
     }
 
     #[inline]
@@ -336,9 +342,14 @@ impl Scene {
         let tri = &self.triangles[slot];
         let (_, b1, b2) =
             Self::intersect_triangle(tri, &Ray { tmin: f32::NEG_INFINITY, tmax: f32::INFINITY, ..ray })?;
-        let p = Vec3::from(ray.origin + hit.t * ray.direction);
+        // The hit point from the vertices, not from o + t d: its error is then bounded by
+        // the vertices' magnitudes alone, whatever the ray's length.
+        let v = [Vec3::from(tri.v0), Vec3::from(tri.v1), Vec3::from(tri.v2)];
+        let b = [1.0 - b1 - b2, b1, b2];
+        let p = b[0] * v[0] + b[1] * v[1] + b[2] * v[2];
+        let p_error = interpolation_error(b, v);
         let d = Vec3::from(ray.direction);
-        let mut n_geom = Vec3::from((tri.v1 - tri.v0).cross(tri.v2 - tri.v0)).normalize();
+        let mut n_geom = Self::face_normal(tri);
         let front_face = n_geom.dot(d) < 0.0;
         if !front_face {
             n_geom = -n_geom;
@@ -354,6 +365,7 @@ impl Scene {
         Some(SurfaceHit {
             t: hit.t,
             p,
+            p_error,
             n_geom,
             n_shading,
             uv: self.uv_at(slot, b1, b2),
@@ -373,14 +385,36 @@ impl Scene {
         }
     }
 
-    /// Whether the segment from surface point `p` (geometric normal `n_geom`) to `target` is
-    /// blocked, with the scene's epsilon rule at both ends.
+    /// Whether the segment from surface point `p` (error bound `p_error`, geometric normal
+    /// `n_geom`) to `target` (error bound `target_error`, on a surface of normal
+    /// `target_normal`) is blocked, with the one rule at both ends
+    /// ([`crate::ray_origin::shadow_ray`]).
     #[inline]
-    pub fn segment_occluded(&self, p: Vec3, n_geom: Vec3, target: Vec3) -> bool {
-        match self.epsilon.shadow_ray(p, n_geom, target) {
+    pub fn segment_occluded(
+        &self,
+        p: Vec3,
+        p_error: Vec3,
+        n_geom: Vec3,
+        target: Vec3,
+        target_error: Vec3,
+        target_normal: Vec3,
+    ) -> bool {
+        match shadow_ray(p, p_error, n_geom, target, target_error, target_normal) {
             Some(ray) => self.occluded(ray),
             None => false,
         }
+    }
+
+    /// A bound on the magnitude of every coordinate in the scene (triangles and lights), for
+    /// rounding margins of tests that may meet any triangle ([`crate::Shaft`]).
+    pub fn coordinate_bound(&self) -> f32 {
+        let mut m = self.bounds_min.abs().max(self.bounds_max.abs()).max_element();
+        for l in &self.lights {
+            for c in l.corners() {
+                m = m.max(c.abs().max_element());
+            }
+        }
+        m
     }
 
     /// The albedo (linear RGB) at a hit.

@@ -31,6 +31,8 @@ pub struct PrepareContext<'a> {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VisiblePoint {
     pub p: Vec3,
+    /// `p`'s own error bound ([`crate::SurfaceHit::p_error`]).
+    pub p_error: Vec3,
     pub n_geom: Vec3,
     pub n_shading: Vec3,
 }
@@ -41,8 +43,11 @@ pub struct VisiblePoint {
 pub struct ShadowQuery {
     /// The shading point (render space), on the surface: not offset.
     pub p: Vec3,
+    /// A bound on `p`'s own rounding, per component ([`crate::SurfaceHit::p_error`]); ray
+    /// origins are offset by it ([`crate::ray_origin`]). Zero for a point known exactly.
+    pub p_error: Vec3,
     /// Unit geometric normal, on the side the camera ray came from. Ray origins are offset
-    /// along it (`Scene::epsilon`).
+    /// along it ([`crate::ray_origin::offset_origin`]).
     pub n_geom: Vec3,
     /// Unit shading normal (same side): defines the horizon.
     pub n_shading: Vec3,

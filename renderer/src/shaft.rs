@@ -1,20 +1,36 @@
 //! Shaft culling (Haines & Wallace 1994, in spirit): one conservative BVH query that proves a
 //! whole bundle of shadow rays unblocked, so that none of them need tracing.
 //!
-//! The shaft of a shading point is the convex hull of its ray origin and the light's
-//! rectangle, cut by a plane just above the point's tangent plane (the receiver's own surface
-//! would otherwise touch it at the apex). Every shadow ray from the point to a light sample
-//! at least `eps` above that tangent plane lies inside it (rays start `eps` above the
-//! surface: [`crate::RayEpsilon`]). If no triangle can meet the shaft, each of those rays is
-//! unblocked, and a traced query gives the same bits without tracing them.
+//! The shaft of a shading point is the convex hull of its ray origin (the apex: exactly the
+//! origin [`crate::ray_origin::offset_origin`] gives every ray above the tangent plane) and
+//! the light's rectangle, cut by a plane just under the apex, parallel to the tangent plane
+//! (the receiver's own surface lies below it) and by a plane just in front of the light (rays stop
+//! short of the light: [`crate::ray_origin::shadow_ray`]). Every shadow ray from the point to
+//! a light sample that [`covers`] accepts lies inside it. If no triangle can meet the shaft,
+//! each of those rays is unblocked, and a traced query gives the same bits without tracing
+//! them.
 //!
 //! The test is conservative: a triangle counts unless one separating plane is found among
 //! the shaft's faces (all three vertices outside one face) or the triangle's own plane (every
 //! shaft vertex on one side). A triangle it cannot separate makes the shaft "not clear" and
 //! the caller traces, so a miss costs speed, never accuracy. Alpha-tested triangles count as
 //! solid for the same reason.
+//!
+//! Margins (no scene-sized epsilon): each face is anchored at a point and a vertex counts as
+//! outside only by more than gamma(5) of `|normal| . |vertex - anchor|`, the rounding of its
+//! own evaluation. The side faces' offsets are the largest projection of the hull's own
+//! vertices, plus the light points' error bound (3x: sample, corner, the target's offset),
+//! the rays' rounding (gamma(16) of their length) and gamma(32) of the scene's largest
+//! coordinate for the intersector's acceptance rounding: slack there only costs culling.
+//! The two faces that must separate touching geometry take no such slack: the cut sits just
+//! under the apex (its height `h_o` over the point less gamma(8) of it, the rounding of
+//! `h_o`), and covered rays end at least `h_o` above the point ([`covers`]); the light's face
+//! sits at half of `SHADOW_EPSILON x` the apex's height over the light's plane, where every
+//! ray ends at least that far in front (it stops that fraction of its length short of a
+//! point not behind the plane).
 
 use crate::light::RectLight;
+use crate::ray_origin::{SHADOW_EPSILON, gamma, offset_origin};
 use crate::scene::Scene;
 use glam::{Vec3, Vec3A};
 
@@ -24,21 +40,52 @@ fn is_positive(x: f32) -> bool {
     x > 0.0
 }
 
-/// A plane `normal . x <= offset` bounding the shaft (inside), with the slack by which a
-/// vertex must lie outside it to count as separated.
+/// A plane `normal . (x - anchor) <= offset` bounding the shaft (inside). A point is outside
+/// by more than `slack` plus the rounding of its own evaluation.
 #[derive(Debug, Clone, Copy)]
 struct Face {
     normal: Vec3A,
+    anchor: Vec3A,
     offset: f32,
-    /// Outside means `normal . x > offset + slack`.
     slack: f32,
 }
 
 impl Face {
     #[inline]
     fn outside(&self, v: Vec3A) -> bool {
-        self.normal.dot(v) > self.offset + self.slack
+        let w = v - self.anchor;
+        self.normal.dot(w) > self.offset + self.slack + gamma(5) * self.normal.abs().dot(w.abs())
     }
+}
+
+/// Whether the shadow ray from surface point `p` (origin `origin`, geometric normal
+/// `n_geom`) to light point `target` (error bound `target_error`) lies in that point's
+/// shafts: its target is at least the apex's height `h_o` over the tangent plane (and
+/// `2 SHADOW_EPSILON` of it: the ray stops that fraction short), plus the target's error
+/// (twice: its rounding and its offset) and gamma(16) of its distance, so the whole ray stays
+/// at or above `h_o`, over the cut.
+#[inline]
+pub fn covers(p: Vec3, origin: Vec3, n_geom: Vec3, target: Vec3, target_error: Vec3) -> bool {
+    let h_o = n_geom.dot(origin - p);
+    let w = target - p;
+    n_geom.dot(w)
+        >= h_o * (1.0 + 2.0 * SHADOW_EPSILON)
+            + 2.0 * (target_error.x + target_error.y + target_error.z)
+            + gamma(16) * w.abs().element_sum()
+}
+
+/// Whether [`covers`] accepts every point of `light` (within its error bound), from its
+/// corners: the height over the tangent plane is affine, so the lowest sample is no lower
+/// than the lowest corner less the corners' and the sample's rounding; the distance term is
+/// taken at the farthest corner.
+pub fn covers_light(p: Vec3, origin: Vec3, n_geom: Vec3, light: &RectLight) -> bool {
+    let corners = light.corners();
+    let e = light.max_point_error().element_sum();
+    let far = corners.iter().map(|&c| (c - p).abs().element_sum()).fold(0.0, f32::max) + e;
+    let h_o = n_geom.dot(origin - p);
+    corners
+        .iter()
+        .all(|&c| n_geom.dot(c - p) >= h_o * (1.0 + 2.0 * SHADOW_EPSILON) + 4.0 * e + gamma(16) * far)
 }
 
 /// The shaft from one shading point to a rectangular light (see the module docs).
@@ -50,19 +97,22 @@ pub struct Shaft {
     /// The hull's vertices (the origin and the light's corners): a superset of the cut shaft,
     /// for the triangle-plane axis.
     vertices: [Vec3A; 5],
-    /// Slack of the triangle-plane axis.
+    /// How far covered rays may stray outside the hull of `vertices` (light-point error,
+    /// ray rounding, the intersector's acceptance): the triangle-plane axis's slack, per unit
+    /// of its normal's length.
     slack: f32,
 }
 
 impl Shaft {
-    /// The shaft of surface point `p` (unit geometric normal `n_geom`, on the side the light
-    /// is tested from) toward `light`, for a scene whose ray epsilon is `eps`.
+    /// The shaft of surface point `p` (error bound `p_error`, unit geometric normal `n_geom`,
+    /// on the side the light is tested from) toward `light`, in a scene whose coordinates are
+    /// at most `scene_bound` in magnitude ([`Scene::coordinate_bound`]).
     ///
-    /// It holds every shadow ray of [`crate::RayEpsilon::shadow_ray`] from `p` to a light
-    /// point `target` with `n_geom . (target - p) >= eps` ([`Shaft::covers`]). `None` if the
-    /// light's rectangle is degenerate or `p` is not in front of it.
-    pub fn new(light: &RectLight, p: Vec3, n_geom: Vec3, eps: f32) -> Option<Shaft> {
-        Self::to_part(light, [0.0, 1.0], [0.0, 1.0], p, n_geom, eps)
+    /// It holds every shadow ray of [`crate::ray_origin::shadow_ray`] from `p` to a light
+    /// point the [`covers`] test accepts. `None` if the light's rectangle is degenerate or the
+    /// apex is not clearly in front of it.
+    pub fn new(light: &RectLight, p: Vec3, p_error: Vec3, n_geom: Vec3, scene_bound: f32) -> Option<Shaft> {
+        Self::to_part(light, [0.0, 1.0], [0.0, 1.0], p, p_error, n_geom, scene_bound)
     }
 
     /// The shaft to the part `a in [a0, a1], b in [b0, b1]` of the light (the coordinates of
@@ -72,39 +122,60 @@ impl Shaft {
         a: [f32; 2],
         b: [f32; 2],
         p: Vec3,
+        p_error: Vec3,
         n_geom: Vec3,
-        eps: f32,
+        scene_bound: f32,
     ) -> Option<Shaft> {
+        let origin = offset_origin(p, p_error, n_geom, n_geom);
+        Self::with_apex(light, a, b, p, n_geom, origin, scene_bound)
+    }
+
+    /// [`Shaft::to_part`] for rays that all start at `apex`, above `p`'s tangent plane.
+    pub(crate) fn with_apex(
+        light: &RectLight,
+        a: [f32; 2],
+        b: [f32; 2],
+        p: Vec3,
+        n_geom: Vec3,
+        apex: Vec3,
+        scene_bound: f32,
+    ) -> Option<Shaft> {
+        if !is_positive((a[1] - a[0]) * (b[1] - b[0])) || !is_positive(light.area()) {
+            return None;
+        }
         let corners = [
             light.point(a[0], b[0]),
             light.point(a[1], b[0]),
             light.point(a[1], b[1]),
             light.point(a[0], b[1]),
         ];
-        if !is_positive((a[1] - a[0]) * (b[1] - b[0])) {
-            return None;
-        }
-        let apex = p + eps * n_geom;
+        let e_light = light.max_point_error().element_sum();
+        let reach = corners.iter().map(|&c| (c - apex).abs().element_sum()).fold(0.0, f32::max);
+        // The apex's height over the light's plane: every ray ends at least SHADOW_EPSILON of
+        // it in front of the plane, less its rounding (gamma(8) of its length). Too close to
+        // the plane for that margin: trace every ray.
         let height = light.normal.dot(apex - light.center);
-        // An apex (nearly) in the light's plane: the side faces' orientation test below would
-        // sit at rounding level. Such points trace every ray.
-        if !is_positive(height - 4.0 * eps) || !is_positive(light.area()) {
+        let in_front = 0.5 * SHADOW_EPSILON * height;
+        if !is_positive(in_front - 2.0 * gamma(8) * reach) || !reach.is_finite() {
             return None;
         }
-        // Numerical slack of the side faces: one epsilon outwards, well above f32 rounding of
-        // positions (|p| <= scene diagonal, rounding 2^-24 of it; eps is 1e-5 of it).
-        let mut faces = [Face { normal: Vec3A::ZERO, offset: 0.0, slack: 0.0 }; 6];
+        let h_o = n_geom.dot(apex - p);
+        if !is_positive(h_o) {
+            return None;
+        }
+        let apex_a = Vec3A::from(apex);
+        let hull = [apex_a, corners[0].into(), corners[1].into(), corners[2].into(), corners[3].into()];
+        let slack = 3.0 * e_light + gamma(16) * reach + gamma(32) * scene_bound.max(apex.abs().max_element());
+        let mut faces = [Face { normal: Vec3A::ZERO, anchor: Vec3A::ZERO, offset: 0.0, slack: 0.0 }; 6];
         // Orientation: the centre of the hull is inside every side face.
         let centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
         let inner = Vec3A::from(0.2 * apex + 0.8 * centre);
         for i in 0..4 {
             let (a, b) = (Vec3A::from(corners[i]), Vec3A::from(corners[(i + 1) % 4]));
             // The light edge crossed with the long edge to the apex: two well-separated
-            // directions. (The two long edges apex -> a and apex -> b are nearly parallel for a
-            // small, far part of the light, and their cross product lost enough precision to
-            // put the apex 24 epsilons outside its own face: found by review, a regression
-            // test below.)
-            let mut n = (b - a).cross(Vec3A::from(apex) - a);
+            // directions. Any direction is a valid axis: the offset below is the hull's own
+            // largest projection on it, so the normal's rounding costs nothing.
+            let mut n = (b - a).cross(apex_a - a);
             let len = n.length();
             if !is_positive(len) || !len.is_finite() {
                 return None;
@@ -113,43 +184,27 @@ impl Shaft {
             if n.dot(inner - a) > 0.0 {
                 n = -n;
             }
-            faces[i] = Face { normal: n, offset: n.dot(a), slack: eps };
+            let offset = hull
+                .iter()
+                .map(|&v| {
+                    let w = v - apex_a;
+                    n.dot(w) + gamma(5) * n.abs().dot(w.abs())
+                })
+                .fold(f32::NEG_INFINITY, f32::max);
+            faces[i] = Face { normal: n, anchor: apex_a, offset, slack };
         }
-        // The light's plane: rays stop `eps` short of their sample, so they end at least
-        // eps * cos_min in front of it (cos_min: the most grazing ray's cosine to the light's
-        // normal), less f32 rounding of positions (~0.012 eps, see `RayEpsilon`). Where
-        // cos_min >= 1/4, geometry below eps / 8 in front of the plane (a ceiling flush with
-        // the light) is separated: a margin of ten roundings either side. Where rays arrive
-        // more grazing than that, only geometry eps / 10 behind the plane is (review found a
-        // flush ceiling "separated" from rays that hit it, at cos_min ~ 1e-3).
+        // The light's plane: inside is n_light . (x - centre) >= in_front.
         let n_light = Vec3A::from(light.normal);
-        let cos_min = corners
-            .iter()
-            .map(|&c| (apex - c).normalize_or_zero().dot(light.normal))
-            .fold(f32::INFINITY, f32::min)
-            .max(0.0);
-        let in_front = if cos_min >= 0.25 { 0.125 * eps } else { -0.1 * eps };
-        let base_offset = -n_light.dot(Vec3A::from(light.center));
-        faces[4] = Face { normal: -n_light, offset: base_offset - in_front, slack: 0.0 };
-        // The cut: n_geom . (x - p) >= eps / 2. Covered rays lie at >= eps above the tangent
-        // plane, so the margin is eps / 2; the receiver's own surface (and, for a convex
-        // surface, its neighbours) lie at <= 0 and are outside.
+        faces[4] = Face { normal: -n_light, anchor: light.center.into(), offset: -in_front, slack: 0.0 };
+        // The cut: n_geom . (x - p) >= h_o (1 - gamma(8)), under the apex by more than the
+        // rounding of h_o (o - p is exact, its dot product has terms of one sign). Covered
+        // rays stay at >= h_o ([`covers`]); the receiver's own surface lies at most its error
+        // bound from p, h_o, plus its tilt against n_geom: below the cut unless p's actual
+        // rounding nearly reaches its bound or the triangle is large against its distance
+        // from the origin (then the shaft is not clear and the rays are traced).
         let n = Vec3A::from(n_geom);
-        faces[5] = Face { normal: -n, offset: -(n.dot(Vec3A::from(p)) + 0.5 * eps), slack: 0.0 };
-        let vertices = [
-            Vec3A::from(apex),
-            Vec3A::from(corners[0]),
-            Vec3A::from(corners[1]),
-            Vec3A::from(corners[2]),
-            Vec3A::from(corners[3]),
-        ];
-        Some(Shaft { faces, vertices, slack: eps })
-    }
-
-    /// Whether the shaft holds the shadow ray from `p` to light point `target`.
-    #[inline]
-    pub fn covers(p: Vec3, n_geom: Vec3, target: Vec3, eps: f32) -> bool {
-        n_geom.dot(target - p) >= eps
+        faces[5] = Face { normal: -n, anchor: p.into(), offset: -(h_o * (1.0 - gamma(8))), slack: 0.0 };
+        Some(Shaft { faces, vertices: hull, slack })
     }
 
     /// Whether the box `[min, max]` lies wholly outside one face.
@@ -169,24 +224,31 @@ impl Shaft {
         if self.faces.iter().any(|f| f.outside(v0) && f.outside(v1) && f.outside(v2)) {
             return true;
         }
+        // The triangle's normal as an axis: any axis separates if the projections do, so a
+        // sliver's inexact normal costs nothing; the triangle's own vertices are projected
+        // too (not assumed at 0), each projection with its rounding.
         let (e1, e2) = (v1 - v0, v2 - v0);
         let n = e1.cross(e2);
         let len = n.length();
-        // Degenerate, or a sliver whose normal is mostly rounding (|e1 x e2| within a few
-        // hundred ulps of |e1| |e2|): no trustworthy plane axis, and the faces already failed
-        // to separate it.
-        if !is_positive(len) || !len.is_finite() || len < 256.0 * f32::EPSILON * e1.length() * e2.length() {
+        if !is_positive(len) || !len.is_finite() {
             return false;
         }
-        let n = n / len;
-        let d = n.dot(v0);
+        let na = n.abs();
+        let proj = |w: Vec3A| (n.dot(w), gamma(5) * na.dot(w.abs()));
+        let (mut tri_lo, mut tri_hi) = (0.0f32, 0.0f32);
+        for w in [e1, e2] {
+            let (s, r) = proj(w);
+            tri_lo = tri_lo.min(s - r);
+            tri_hi = tri_hi.max(s + r);
+        }
+        let margin = self.slack * len;
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for v in self.vertices {
-            let s = n.dot(v) - d;
-            lo = lo.min(s);
-            hi = hi.max(s);
+            let (s, r) = proj(v - v0);
+            lo = lo.min(s - r);
+            hi = hi.max(s + r);
         }
-        lo > self.slack || hi < -self.slack
+        lo > tri_hi + margin || hi < tri_lo - margin
     }
 }
 
@@ -264,19 +326,22 @@ pub fn clear_leaves(
     scene: &Scene,
     light: &RectLight,
     p: Vec3,
+    p_error: Vec3,
     n_geom: Vec3,
     strata: (u32, u32),
 ) -> (u64, u32) {
-    clear_leaves_mapped(scene, light, p, n_geom, strata, |a, b| (a, b))
+    clear_leaves_mapped(scene, light, p, p_error, n_geom, strata, |a, b| (a, b))
 }
 
 /// [`clear_leaves`] for samples drawn through a map of the strata square onto the light:
 /// `part(a, b)` gives a part of the light (a, b ranges) holding the image of the strata block
 /// `a x b` (e.g. [`crate::light_sampling::HorizonWarp::bounds`]).
+#[allow(clippy::too_many_arguments)]
 pub fn clear_leaves_mapped(
     scene: &Scene,
     light: &RectLight,
     p: Vec3,
+    p_error: Vec3,
     n_geom: Vec3,
     strata: (u32, u32),
     part: impl Fn([f32; 2], [f32; 2]) -> ([f32; 2], [f32; 2]),
@@ -286,7 +351,8 @@ pub fn clear_leaves_mapped(
     if lx == 0 || ly == 0 {
         return (0, 0);
     }
-    let eps = scene.epsilon.eps;
+    let apex = offset_origin(p, p_error, n_geom, n_geom);
+    let scene_bound = scene.coordinate_bound();
     // The first stratum of leaf x (of l leaves over n strata); the light coordinate of the
     // leaf's lower edge is that over n.
     let first = |x: usize, n: usize, l: usize| (x * n).div_ceil(l);
@@ -307,7 +373,7 @@ pub fn clear_leaves_mapped(
         let a = [i0 as f32 / nx as f32, i1 as f32 / nx as f32];
         let b = [j0 as f32 / ny as f32, j1 as f32 / ny as f32];
         let (a, b) = part(a, b);
-        let Some(shaft) = Shaft::to_part(light, a, b, p, n_geom, eps) else { continue };
+        let Some(shaft) = Shaft::with_apex(light, a, b, p, n_geom, apex, scene_bound) else { continue };
         tests += 1;
         if scene.shaft_clear(&shaft) {
             mask |= leaf_rect_bits([x0, x1], [y0, y1]);
@@ -357,6 +423,7 @@ mod tests {
     use super::*;
     use crate::camera::Camera;
     use crate::gltf_load::Geometry;
+    use crate::ray_origin::point_error;
     use crate::sampling::Rng;
     use crate::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
     use crate::traced::{Traced, TracedParams};
@@ -381,7 +448,7 @@ mod tests {
     const FLOOR: Quad = ([0.0, 0.0, 0.0], [20.0, 0.0, 0.0], [0.0, 0.0, -20.0]);
 
     fn clear(s: &Scene, p: Vec3, n: Vec3) -> bool {
-        let shaft = Shaft::new(&s.lights[0], p, n, s.epsilon.eps).expect("a shaft");
+        let shaft = Shaft::new(&s.lights[0], p, point_error(p), n, s.coordinate_bound()).expect("a shaft");
         s.shaft_clear(&shaft)
     }
 
@@ -391,7 +458,7 @@ mod tests {
         let ceiling = ([0.0, 2.0, 0.0], [30.0, 0.0, 0.0], [0.0, 0.0, 30.0]);
         let s = scene(&[FLOOR, ceiling], light());
         // The ceiling quad covers the light itself, but from below: it lies in the light's
-        // plane, and rays stop eps short of it. (Traced agrees: nothing blocks.)
+        // plane, and rays stop short of it. (Traced agrees: nothing blocks.)
         assert!(clear(&s, Vec3::new(0.3, 0.0, -0.2), Vec3::Y));
         assert!(clear(&s, Vec3::new(-4.0, 0.0, 3.0), Vec3::Y));
     }
@@ -403,7 +470,7 @@ mod tests {
         let p = Vec3::ZERO;
         let inside = ([0.2, 1.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.0, -0.1]);
         assert!(!clear(&scene(&[FLOOR, inside], light()), p, Vec3::Y));
-        // Its near edge at x = 0.25 + 1e-3: outside by 1e-3, ~ 40 epsilons of this scene.
+        // Its near edge at x = 0.25 + 1e-3: outside by 1e-3, ~ 500 times the side faces' slack.
         let outside = ([0.301, 1.0, 0.0], [0.1, 0.0, 0.0], [0.0, 0.0, -0.1]);
         assert!(clear(&scene(&[FLOOR, outside], light()), p, Vec3::Y));
         // Behind the light (y > 2): outside.
@@ -441,13 +508,27 @@ mod tests {
             let q = if k % 4 == 3 {
                 let x = r(3.05, 4.95);
                 let p = Vec3::new(x, 0.5 * (x - 3.0), r(-1.9, 1.9));
-                ShadowQuery { p, n_geom: ramp_normal, n_shading: ramp_normal, pixel: [0, 0], seed: k }
+                ShadowQuery {
+                    p,
+                    p_error: point_error(p),
+                    n_geom: ramp_normal,
+                    n_shading: ramp_normal,
+                    pixel: [0, 0],
+                    seed: k,
+                }
             } else {
                 let p = Vec3::new(r(-3.0, 3.0), 0.0, r(-3.0, 3.0));
                 let tilt = r(0.0, 1.48);
                 let az = r(0.0, std::f32::consts::TAU);
                 let n = Vec3::new(tilt.sin() * az.cos(), tilt.cos(), tilt.sin() * az.sin());
-                ShadowQuery { p, n_geom: Vec3::Y, n_shading: n, pixel: [0, 0], seed: k }
+                ShadowQuery {
+                    p,
+                    p_error: point_error(p),
+                    n_geom: Vec3::Y,
+                    n_shading: n,
+                    pixel: [0, 0],
+                    seed: k,
+                }
             };
             let (p, n) = (q.p, q.n_shading);
             let (a, b) = (plain.visibility(&s, &q), culled.visibility(&s, &q));
@@ -465,19 +546,20 @@ mod tests {
     fn leaves_cover_the_strata_grid_and_parts_below_the_threshold_are_not_tested() {
         let s = scene(&[FLOOR], light());
         // Open sky: the whole light is clear in one test, every leaf set.
-        let (mask, tests) = clear_leaves(&s, &s.lights[0], Vec3::ZERO, Vec3::Y, (32, 32));
+        let e = point_error(Vec3::ZERO);
+        let (mask, tests) = clear_leaves(&s, &s.lights[0], Vec3::ZERO, e, Vec3::Y, (32, 32));
         assert_eq!((mask.count_ones(), tests), ((LEAVES * LEAVES) as u32, 1));
         for (i, j) in [(0, 0), (31, 0), (0, 31), (31, 31), (13, 22)] {
             assert_ne!(mask & leaf_bit(i, j, (32, 32)), 0);
         }
         // 48 samples: fewer than MIN_SAMPLES_PER_SHAFT, nothing tested, nothing proven.
-        assert_eq!(clear_leaves(&s, &s.lights[0], Vec3::ZERO, Vec3::Y, (8, 6)), (0, 0));
+        assert_eq!(clear_leaves(&s, &s.lights[0], Vec3::ZERO, e, Vec3::Y, (8, 6)), (0, 0));
         // A plate over a corner of the light, seen from below its centre: the whole light
         // and one quadrant are blocked, the other three quadrants proven clear (4 leaves
         // each), and the blocked quadrant split once more.
         let plate = ([-0.25, 1.9, -0.25], [0.3, 0.0, 0.0], [0.0, 0.0, -0.3]);
         let s = scene(&[FLOOR, plate], light());
-        let (mask, tests) = clear_leaves(&s, &s.lights[0], Vec3::ZERO, Vec3::Y, (32, 32));
+        let (mask, tests) = clear_leaves(&s, &s.lights[0], Vec3::ZERO, e, Vec3::Y, (32, 32));
         assert!(mask.count_ones() >= 12 && mask.count_ones() < 16, "mask {mask:#x}");
         assert!(tests >= 5, "{tests} tests");
     }
@@ -533,15 +615,21 @@ mod tests {
             DVec3::new(0.0, 0.0, -60.0),
         )
         .to_vec();
+        // The review's triangle, moved by (4.34e-4, 0, 3.98e-4) onto the central ray from the
+        // apex of the one rule for ray origins (it sat on the ray from the old origin, 1e-3
+        // higher, which crosses its height ~5e-4 further from the light).
+        let shift = DVec3::new(4.34e-4, 0.0, 3.98e-4);
         tris.push([
-            DVec3::new(-27.38235, -39.83867, -29.864786),
-            DVec3::new(-27.382542, -39.838837, -29.864096),
-            DVec3::new(-27.381868, -39.839005, -29.864344),
+            DVec3::new(-27.38235, -39.83867, -29.864786) + shift,
+            DVec3::new(-27.382542, -39.838837, -29.864096) + shift,
+            DVec3::new(-27.381868, -39.839005, -29.864344) + shift,
         ]);
         let s = triangles_scene(&tris, light);
         let (plain, culled) = plain_and_culled(&s);
+        let p = Vec3::new(-27.44314, -40.0, -29.92025);
         let q = ShadowQuery {
-            p: Vec3::new(-27.44314, -40.0, -29.92025),
+            p,
+            p_error: point_error(p),
             n_geom: Vec3::Y,
             n_shading: Vec3::Y,
             pixel: [0, 0],
@@ -552,9 +640,16 @@ mod tests {
         assert_eq!(a.to_bits(), b.to_bits(), "plain {a} culled {b}");
         // The apex lies inside its side faces (with their slack) for every part of the light.
         for (a0, b0) in [(0.0, 0.0), (0.5, 0.5), (0.25, 0.75), (0.75, 0.0)] {
-            let shaft =
-                Shaft::to_part(&light, [a0, a0 + 0.25], [b0, b0 + 0.25], q.p, q.n_geom, s.epsilon.eps)
-                    .unwrap();
+            let shaft = Shaft::to_part(
+                &light,
+                [a0, a0 + 0.25],
+                [b0, b0 + 0.25],
+                q.p,
+                q.p_error,
+                q.n_geom,
+                s.coordinate_bound(),
+            )
+            .unwrap();
             for f in &shaft.faces[..4] {
                 assert!(!f.outside(shaft.vertices[0]), "apex outside a side face of part ({a0}, {b0})");
             }
@@ -597,7 +692,14 @@ mod tests {
             for k in 0..300u64 {
                 let below = 10f64.powf(-7.0 + 5.5 * rng.next_f32() as f64);
                 let p = to_world(DVec3::new(3.0, 2.0 - below, rng.next_f32() as f64 - 0.5)).as_vec3();
-                let q = ShadowQuery { p, n_geom: n, n_shading: n, pixel: [0, 0], seed: k };
+                let q = ShadowQuery {
+                    p,
+                    p_error: point_error(p),
+                    n_geom: n,
+                    n_shading: n,
+                    pixel: [0, 0],
+                    seed: k,
+                };
                 differ +=
                     usize::from(plain.visibility(&s, &q).to_bits() != culled.visibility(&s, &q).to_bits());
             }

@@ -4,10 +4,11 @@
 use crate::light::RectLight;
 use crate::light_sampling::HorizonPart;
 use crate::method::{KeyError, MethodParams, ShadowMethod};
+use crate::ray_origin::offset_origin;
 use crate::sampling::{Rng, strata};
 use crate::scene::Scene;
 use crate::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
-use crate::shaft::{self, Shaft};
+use crate::shaft;
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -157,7 +158,6 @@ impl LightShadowing for Traced {
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         let light = self.light.as_ref().expect("prepare() runs before visibility()");
         let (nx, ny) = strata(self.params.samples);
-        let eps = scene.epsilon.eps;
         // Where the horizon cuts the light, the strata are warped onto the part above it
         // ([`crate::light_sampling::HorizonWarp`]): every sample counts. The whole light
         // above, or too thin a part above, keeps the plain grid (and its fallback below).
@@ -167,13 +167,15 @@ impl LightShadowing for Traced {
         };
         let clear = if self.params.shaft_culling {
             let (mask, tests) = match &warp {
-                None => shaft::clear_leaves(scene, light, q.p, q.n_geom, (nx, ny)),
+                None => shaft::clear_leaves(scene, light, q.p, q.p_error, q.n_geom, (nx, ny)),
                 // A leaf's samples lie in the image of its strata block: prove the shaft to
                 // that image's bounding rectangle.
-                Some(w) => shaft::clear_leaves_mapped(scene, light, q.p, q.n_geom, (nx, ny), |a, b| {
-                    let (a, b) = w.bounds(a.map(f64::from), b.map(f64::from));
-                    (a.map(|x| x as f32), b.map(|x| x as f32))
-                }),
+                Some(w) => {
+                    shaft::clear_leaves_mapped(scene, light, q.p, q.p_error, q.n_geom, (nx, ny), |a, b| {
+                        let (a, b) = w.bounds(a.map(f64::from), b.map(f64::from));
+                        (a.map(|x| x as f32), b.map(|x| x as f32))
+                    })
+                }
             };
             self.shafts.fetch_add(tests as u64, Ordering::Relaxed);
             self.shafts_clear.fetch_add(mask.count_ones() as u64, Ordering::Relaxed);
@@ -181,13 +183,14 @@ impl LightShadowing for Traced {
         } else {
             0
         };
-        // The whole light proven clear and wholly above the geometric horizon (with a margin
-        // of an epsilon over `Shaft::covers`, for the samples' rounding): every counted
-        // sample is unblocked, so the answer is 1 without drawing them. Measured: drawing
-        // 1024 samples per such point cost ~10 us, most of a clear point's time.
+        // The origin every ray above the tangent plane starts from (the shafts' apex).
+        let origin = offset_origin(q.p, q.p_error, q.n_geom, q.n_geom);
+        // The whole light proven clear and wholly covered: every counted sample is unblocked,
+        // so the answer is 1 without drawing them. Measured: drawing 1024 samples per such
+        // point cost ~10 us, most of a clear point's time.
         if clear != 0
             && clear == shaft::all_leaves((nx, ny))
-            && light.corners().iter().all(|&c| q.n_geom.dot(c - q.p) >= 2.0 * eps)
+            && shaft::covers_light(q.p, origin, q.n_geom, light)
         {
             return 1.0;
         }
@@ -208,12 +211,15 @@ impl LightShadowing for Traced {
                     continue;
                 }
                 above += 1;
-                if clear & shaft::leaf_bit(i, j, (nx, ny)) != 0 && Shaft::covers(q.p, q.n_geom, target, eps) {
+                let target_error = light.point_error(a, b);
+                if clear & shaft::leaf_bit(i, j, (nx, ny)) != 0
+                    && shaft::covers(q.p, origin, q.n_geom, target, target_error)
+                {
                     unblocked += 1; // inside a clear shaft: proven unblocked
                     continue;
                 }
                 traced += 1;
-                if !scene.segment_occluded(q.p, q.n_geom, target) {
+                if !scene.segment_occluded(q.p, q.p_error, q.n_geom, target, target_error, light.normal) {
                     unblocked += 1;
                 }
             }
@@ -282,7 +288,14 @@ mod tests {
     }
 
     fn query(p: Vec3, seed: u64) -> ShadowQuery {
-        ShadowQuery { p, n_geom: Vec3::Y, n_shading: Vec3::Y, pixel: [0, 0], seed }
+        ShadowQuery {
+            p,
+            p_error: crate::ray_origin::point_error(p),
+            n_geom: Vec3::Y,
+            n_shading: Vec3::Y,
+            pixel: [0, 0],
+            seed,
+        }
     }
 
     const FLOOR: ([f64; 3], [f64; 3], [f64; 3]) = ([0.0, 0.0, 0.0], [20.0, 0.0, 0.0], [0.0, 0.0, -20.0]);
@@ -350,6 +363,7 @@ mod tests {
         let t = traced(&scene, 64);
         let q = ShadowQuery {
             p: Vec3::new(0.0, 1.0, 0.0),
+            p_error: crate::ray_origin::point_error(Vec3::new(0.0, 1.0, 0.0)),
             n_geom: Vec3::X,
             n_shading: Vec3::X,
             pixel: [0, 0],

@@ -32,7 +32,7 @@
 //! soft or too hard): PCSS's known error, kept as is.
 //!
 //! **Which texels are blockers.** Fernando's test is "texel depth < receiver depth" (the
-//! map's depths are already biased: slope-scaled, plus the scene's epsilon). On a receiver
+//! map's depths are already biased: slope-scaled, plus each texel's own hit error). On a receiver
 //! that does not face the light squarely, its own surface is nearer than P on its uphill
 //! side. Region shrinking keeps a lit point's search region too small for that to matter,
 //! but inside a penumbra the region is sized by the real occluder's depth, and the bare test
@@ -325,6 +325,7 @@ mod tests {
     use crate::depth_map::LightFrame;
     use glam::DVec3;
     use renderer::gltf_load::Geometry;
+    use renderer::ray_origin::point_error;
     use renderer::{Camera, RectLight, VisiblePoint};
     use std::time::Duration;
 
@@ -358,7 +359,7 @@ mod tests {
 
     /// A point facing the light (normal -z, towards the light plane).
     fn query(p: Vec3, seed: u64) -> ShadowQuery {
-        ShadowQuery { p, n_geom: -Vec3::Z, n_shading: -Vec3::Z, pixel: [0, 0], seed }
+        ShadowQuery { p, p_error: point_error(p), n_geom: -Vec3::Z, n_shading: -Vec3::Z, pixel: [0, 0], seed }
     }
 
     fn counter(m: &Pcss, name: &str) -> u64 {
@@ -386,7 +387,8 @@ mod tests {
     /// A query on the tilted receiver at image point `g`.
     fn tilted_query(g: Vec2, seed: u64) -> ShadowQuery {
         let n = TILT.normalize();
-        ShadowQuery { p: tilted_depth(g) * g.extend(1.0), n_geom: n, n_shading: n, pixel: [0, 0], seed }
+        let p = tilted_depth(g) * g.extend(1.0);
+        ShadowQuery { p, p_error: point_error(p), n_geom: n, n_shading: n, pixel: [0, 0], seed }
     }
 
     /// The tilted receiver under the half-plane occluder x < 0 at depth 1.
@@ -541,7 +543,7 @@ mod tests {
             .map(|k| {
                 let p =
                     Vec3::new(-1.9 + 3.8 * (k % 40) as f32 / 39.0, 0.0, -1.9 + 3.8 * (k / 40) as f32 / 39.0);
-                VisiblePoint { p, n_geom: Vec3::Y, n_shading: Vec3::Y }
+                VisiblePoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: Vec3::Y }
             })
             .collect();
         let mut m = Pcss::new(PcssParams::default(), 256);
@@ -559,8 +561,14 @@ mod tests {
             if vp.p.x < -0.5 && vp.p.z < -0.5 {
                 continue;
             }
-            let q =
-                ShadowQuery { p: vp.p, n_geom: Vec3::Y, n_shading: Vec3::Y, pixel: [0, 0], seed: k as u64 };
+            let q = ShadowQuery {
+                p: vp.p,
+                p_error: vp.p_error,
+                n_geom: Vec3::Y,
+                n_shading: Vec3::Y,
+                pixel: [0, 0],
+                seed: k as u64,
+            };
             assert_eq!(m.visibility(&scene, &q), 1.0, "floor point {}", vp.p);
         }
         assert!(counter(&m, "blocker_searches") > 0);

@@ -20,6 +20,8 @@ use std::path::{Path, PathBuf};
 
 /// Bump when the traced method or the frame's conventions change: old entries then no
 /// longer match.
+/// v2: the one rule for ray origins (each hit's own error bound) replaced the scene-scaled
+/// epsilon, and `traced` samples only the part of the light above the horizon.
 pub const TRUTH_VERSION: &str = "traced-v2";
 
 /// Mixed into the seed, so the truth's light samples are independent of the swept

@@ -8,6 +8,7 @@ use super::{DepthMap, DepthMapParams, LightFrame};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::ray::Ray;
 use rayon::prelude::*;
+use renderer::ray_origin::gamma;
 use renderer::{RectLight, Scene, VisiblePoint};
 
 /// How many closed meshes stacked on each other one pixel's slab may span.
@@ -26,14 +27,23 @@ struct Surfaces<'a> {
     params: &'a DepthMapParams,
     pitch: f32,
     slab: f32,
-    eps: f32,
+    /// Where the map's rays start (planar depth): past the rounding of t for geometry in the
+    /// light's own plane (an emitter's triangles), gamma(32) of the light's size and place.
+    start: f32,
+}
+
+/// A bound on a hit's error along the map ray that found it (planar depth): its point's
+/// error along the axis, plus the rounding of `t` itself (gamma(8) of it).
+#[inline]
+fn depth_error(frame: &LightFrame, hit: &renderer::SurfaceHit) -> f32 {
+    frame.z.abs().dot(hit.p_error) + gamma(8) * hit.t
 }
 
 impl Surfaces<'_> {
     /// The first surface the light's ray through image point `img` meets beyond planar depth
     /// `from`, as a (floor, slab bottom) pair of biased depths.
     fn slab_after(&self, img: Vec2, from: f32) -> Option<(f32, f32)> {
-        let (frame, params, pitch, eps) = (self.frame, self.params, self.pitch, self.eps);
+        let (frame, params, pitch) = (self.frame, self.params, self.pitch);
         // Direction with light-space z = 1: the ray's t is then the planar depth.
         let dir = frame.x * img.x + frame.y * img.y + frame.z;
         let ray = Ray::new(Vec3A::from(frame.origin), Vec3A::from(dir), from, f32::INFINITY);
@@ -46,7 +56,8 @@ impl Surfaces<'_> {
         let n = Vec3::new(hit.n_geom.dot(frame.x), hit.n_geom.dot(frame.y), hit.n_geom.dot(frame.z));
         let facing = (n.x * img.x + n.y * img.y + n.z).abs();
         let slope = (n.truncate().length() / facing.max(1e-12)).min(MAX_SLOPE);
-        let d = z + params.slope_bias * pitch * z * slope + eps;
+        let e = depth_error(frame, &hit);
+        let d = z + params.slope_bias * pitch * z * slope + e;
         let mut b = d * (1.0 + self.slab);
         // Closed volumes: the next surface along the same ray. A back face there means the
         // ray was inside a closed mesh from z to it (glTF meshes wind their front faces
@@ -56,15 +67,16 @@ impl Surfaces<'_> {
         // from pixel to pixel, so rays leaving it dip under its neighbours' floors and would
         // stay blocked in a thick slab (measured: false shadows on a grazed wall).
         if params.closed_volumes && hit.front_face && slope <= MAX_SOLID_SLOPE {
-            let mut from = z;
+            let (mut from, mut from_error) = (z, e);
             for _ in 0..MAX_STACKED_SOLIDS {
-                let inside = Ray::new(ray.origin, ray.direction, from + 2.0 * eps, f32::INFINITY);
+                let inside = Ray::new(ray.origin, ray.direction, from + 2.0 * from_error, f32::INFINITY);
                 let Some(exit) = self.scene.intersect(inside).filter(|h| !h.front_face) else { break };
-                b = b.max(exit.t + eps);
-                let beyond = Ray::new(ray.origin, ray.direction, exit.t + 2.0 * eps, f32::INFINITY);
+                let exit_error = depth_error(frame, &exit);
+                b = b.max(exit.t + exit_error);
+                let beyond = Ray::new(ray.origin, ray.direction, exit.t + 2.0 * exit_error, f32::INFINITY);
                 match self.scene.intersect(beyond) {
-                    Some(next) if next.front_face && next.t <= exit.t * (1.0 + self.slab) + eps => {
-                        from = next.t
+                    Some(next) if next.front_face && next.t <= exit.t * (1.0 + self.slab) + exit_error => {
+                        (from, from_error) = (next.t, depth_error(frame, &next));
                     }
                     _ => break,
                 }
@@ -77,7 +89,7 @@ impl Surfaces<'_> {
     /// first surface, and of the hidden layer (both empty when it is off); +inf where no
     /// surface.
     fn render(&self, origin: Vec2, res: u32) -> [Vec<f32>; 4] {
-        let (params, pitch, eps) = (self.params, self.pitch, self.eps);
+        let (params, pitch) = (self.params, self.pitch);
         let n_pixels = (res * res) as usize;
         let mut depth = vec![f32::INFINITY; n_pixels];
         let mut bottom = vec![f32::INFINITY; n_pixels];
@@ -93,7 +105,7 @@ impl Surfaces<'_> {
             .for_each(|(j, (((d_row, b_row), d2_row), b2_row))| {
                 for i in 0..row {
                     let img = origin + pitch * Vec2::new(i as f32 + 0.5, j as f32 + 0.5);
-                    let Some((d, b)) = self.slab_after(img, 2.0 * eps) else { continue };
+                    let Some((d, b)) = self.slab_after(img, self.start) else { continue };
                     (d_row[i], b_row[i]) = (d, b);
                     // The hidden layer: the first surface below this pixel's slab.
                     if params.hidden_layer
@@ -126,10 +138,10 @@ impl DepthMap {
         assert!(params.slab_thickness >= 0.0 && params.slab_thickness.is_finite(), "slab_thickness");
         let frame = LightFrame::new(light);
         let res = params.resolution.max(1);
-        let eps = scene.epsilon.eps;
+        let start = gamma(32) * (light.u.length() + light.v.length() + light.center.abs().max_element());
         let Frustum { origin, pitch, caster_z_near } = fit(scene, light, &frame, visible, params, res);
         let slab = params.slab_thickness * pitch;
-        let surface = Surfaces { scene, frame: &frame, params, pitch, slab, eps };
+        let surface = Surfaces { scene, frame: &frame, params, pitch, slab, start };
         let [depth, bottom, depth2, bottom2] = surface.render(origin, res);
         let z_min = depth.iter().copied().fold(f32::INFINITY, f32::min);
         let pyramid = MinPyramid::new(&depth, res as usize);

@@ -25,9 +25,8 @@ pub(super) fn fit(
     params: &DepthMapParams,
     res: u32,
 ) -> Frustum {
-    let eps = scene.epsilon.eps;
     let (lo, hi, z_recv_min) = receiver_box(scene, light, frame, visible, params);
-    let caster_z_near = caster_z_near(scene, frame, lo, hi, z_recv_min, eps);
+    let caster_z_near = caster_z_near(scene, frame, lo, hi, z_recv_min);
     // The margin: how far a shadow ray travels in the image before it is above the
     // nearest caster.
     let margin = frame.half_size * (1.0 / caster_z_near - 1.0 / (z_recv_min.max(caster_z_near)));
@@ -49,7 +48,7 @@ fn receiver_box(
     visible: &[VisiblePoint],
     params: &DepthMapParams,
 ) -> (Vec2, Vec2, f32) {
-    let eps = scene.epsilon.eps;
+    let scene_bound = scene.coordinate_bound();
     // Receivers: visible points the light reaches, weighted by their irradiance. The
     // frustum leaves out RECEIVER_TRIM of the total irradiance on each side of each axis:
     // surfaces reaching up to the light's plane (a wall beside a ceiling light) would
@@ -66,7 +65,9 @@ fn receiver_box(
         .par_iter()
         .filter_map(|v| {
             let p = frame.light_from_world(v.p);
-            if p.z <= eps || grazing(frame, params.grazing_cos, v.p, v.n_geom) {
+            if p.z <= frame.depth_tolerance(v.p, v.p_error)
+                || grazing(frame, params.grazing_cos, v.p, v.n_geom)
+            {
                 return None;
             }
             let e = light.irradiance_factor(v.p, v.n_shading);
@@ -74,7 +75,8 @@ fn receiver_box(
                 return None;
             }
             let fitted = !params.fit_shadowed
-                || Shaft::new(light, v.p, v.n_geom, eps).is_none_or(|shaft| !scene.shaft_clear(&shaft));
+                || Shaft::new(light, v.p, v.p_error, v.n_geom, scene_bound)
+                    .is_none_or(|shaft| !scene.shaft_clear(&shaft));
             Some((p, e, fitted))
         })
         .collect();
@@ -103,12 +105,12 @@ fn receiver_box(
 /// could reach a receiver's filter region (conservatively, within the receivers' box `lo..hi`
 /// grown by the light's half size / z); the receivers' nearest depth `z_recv_min` when no
 /// vertex is nearer.
-fn caster_z_near(scene: &Scene, frame: &LightFrame, lo: Vec2, hi: Vec2, z_recv_min: f32, eps: f32) -> f32 {
+fn caster_z_near(scene: &Scene, frame: &LightFrame, lo: Vec2, hi: Vec2, z_recv_min: f32) -> f32 {
     let mut caster_z_near = z_recv_min;
     for t in &scene.triangles {
         for v in [t.v0, t.v1, t.v2] {
             let p = frame.light_from_world(Vec3::from(v));
-            if p.z > eps && p.z < caster_z_near {
+            if p.z > frame.depth_tolerance(Vec3::from(v), Vec3::ZERO) && p.z < caster_z_near {
                 let img = Vec2::new(p.x, p.y) / p.z;
                 let reach = frame.half_size / p.z;
                 if img.cmpge(lo - reach).all() && img.cmple(hi + reach).all() {

@@ -51,6 +51,14 @@ impl LightFrame {
         Vec3::new(d.dot(self.x), d.dot(self.y), d.dot(self.z))
     }
 
+    /// A bound on the error of `light_from_world(p).z` for a point with error bound
+    /// `p_error` (zero for a stored vertex): its error along the axis, plus gamma(8) of the
+    /// magnitudes the frame change sums.
+    #[inline]
+    pub fn depth_tolerance(&self, p: Vec3, p_error: Vec3) -> f32 {
+        self.z.abs().dot(p_error) + renderer::ray_origin::gamma(8) * (p - self.origin).abs().element_sum()
+    }
+
     #[inline]
     pub fn world_from_light(&self, p: Vec3) -> Vec3 {
         self.origin + p.x * self.x + p.y * self.y + p.z * self.z
@@ -77,7 +85,8 @@ pub struct DepthMapParams {
     pub resolution: u32,
     /// Slope-scaled bias in depth-map pixels: each texel's floor is pushed back by
     /// `slope_bias x` the depth change of its surface across one pixel footprint (from the
-    /// surface normal at the texel), plus the scene's ray epsilon. Too little: lit surfaces
+    /// surface normal at the texel), plus the texel's own hit error along the map's axis
+    /// ([`renderer::SurfaceHit::p_error`]) and the rounding of its depth. Too little: lit surfaces
     /// shadow themselves (acne); too much: contact shadows detach. 1.0 by measurement.
     pub slope_bias: f32,
     /// Thickness of each floor's slab, in pixel footprints at its depth, for the `plates`

@@ -1,6 +1,7 @@
 //! Unit tests of the depth map: its layers and its fit.
 
 use super::*;
+use renderer::ray_origin::point_error;
 use renderer::{RectLight, Scene, Shaft, VisiblePoint};
 
 fn map(depth: Vec<f32>) -> DepthMap {
@@ -55,7 +56,7 @@ fn floor_scene(card: bool, n: usize, corner: [f32; 2]) -> (Scene, RectLight, Vec
     let visible = (0..n * n)
         .map(|k| {
             let p = Vec3::new(corner[0] + 0.1 * (k % n) as f32, 0.0, corner[1] + 0.1 * (k / n) as f32);
-            VisiblePoint { p, n_geom: Vec3::Y, n_shading: Vec3::Y }
+            VisiblePoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: Vec3::Y }
         })
         .collect();
     (scene, light, visible)
@@ -78,10 +79,9 @@ fn a_map_fitted_to_the_shadowed_receivers_covers_them_finely() {
     let (scene, light, visible) = floor_scene(true, 100, [-5.0, -5.0]);
     let (all_lit, fitted) = both_fits(&scene, &light, &visible);
     assert!(fitted.pitch * 4.0 < all_lit.pitch, "pitch {} against {}", fitted.pitch, all_lit.pitch);
-    let eps = scene.epsilon.eps;
     let mut shadowed = 0;
     for v in &visible {
-        let shaft = Shaft::new(&light, v.p, v.n_geom, eps).unwrap();
+        let shaft = Shaft::new(&light, v.p, v.p_error, v.n_geom, scene.coordinate_bound()).unwrap();
         if !scene.shaft_clear(&shaft) {
             shadowed += 1;
             assert!(fitted.query_point(v.p, v.n_geom).is_some(), "{} outside", v.p);
