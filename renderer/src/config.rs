@@ -229,7 +229,7 @@ impl SceneFile {
 
 /// Checks a light rectangle: finite, non-zero area, perpendicular edges, radiance >= 0, each
 /// edge a length f32 holds. (Whether f32 holds it at its distance from the camera is checked
-/// when the scene is built: `scene::light_in_render_space`.)
+/// when the scene is built: `scene_load::light_in_render_space`.)
 pub fn validate_light(l: &LightDesc, key: &str, path: &Path) -> Result<(), SceneError> {
     let err = |k: &str, msg: &str| Err(SceneError::new(path, format!("{key}.{k}"), msg));
     for (k, v) in [("center", l.center), ("u", l.u), ("v", l.v)] {
@@ -355,7 +355,7 @@ fn len(a: [f64; 3]) -> f64 {
 /// quad spans some).
 fn spans_zero_area(u: [f64; 3], v: [f64; 3]) -> bool {
     use glam::DVec3;
-    crate::scene::is_degenerate([DVec3::ZERO, DVec3::from(u), DVec3::from(v)])
+    crate::precision::is_degenerate([DVec3::ZERO, DVec3::from(u), DVec3::from(v)])
 }
 fn cross_len(a: [f64; 3], b: [f64; 3]) -> f64 {
     len([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])

@@ -486,7 +486,7 @@ fn push_triangles(
             c.swap(1, 2); // keep the winding (and so the front face) under a mirroring transform
         }
         let p = c.map(|i| world.transform_point3(DVec3::from(positions[i as usize].map(f64::from))));
-        if crate::scene::is_degenerate(p) {
+        if crate::precision::is_degenerate(p) {
             geometry.degenerate += 1;
             continue;
         }

@@ -14,12 +14,14 @@ pub mod light_sampling;
 pub mod material;
 pub mod method;
 pub mod output;
+pub mod precision;
 #[cfg(test)]
 mod precision_tests;
 pub mod ray_origin;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod scene_load;
 pub mod shadowing;
 pub mod shaft;
 pub mod traced;

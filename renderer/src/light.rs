@@ -16,7 +16,7 @@ pub struct RectLight {
 
 impl RectLight {
     /// The normal is computed in f64, so that a light too small for f32's products (edges
-    /// of 1e-20 m) still has one; see `scene::light_in_render_space` for what is refused.
+    /// of 1e-20 m) still has one; see `scene_load::light_in_render_space` for what is refused.
     pub fn new(center: Vec3, u: Vec3, v: Vec3, radiance: Vec3) -> Self {
         let normal = u.as_dvec3().cross(v.as_dvec3()).normalize().as_vec3();
         Self { center, u, v, normal, radiance }

@@ -109,7 +109,7 @@ pub fn frame_warnings(
     facing: &[u64],
     lit: &[u64],
 ) -> Vec<String> {
-    use crate::scene::{SHAPE_PRECISION, f32_spacing};
+    use crate::precision::{SHAPE_PRECISION, f32_spacing};
     let mut warnings = Vec::new();
     let visible = hits.iter().flatten().count();
     if visible == 0 {

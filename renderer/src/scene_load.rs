@@ -1,0 +1,439 @@
+//! Building a [`Scene`] from a scene file: models and quads composed in f64, render space
+//! centred on the camera, lights and camera placed in it, triangles f32 cannot hold dropped
+//! and warned about, then the BVH.
+
+use crate::camera::Camera;
+use crate::config::{LightDesc, SceneFile, validate_light};
+use crate::error::SceneError;
+use crate::gltf_load::{EmitterCandidate, Geometry, GltfCamera, SourceTriangle, load_gltf};
+use crate::light::RectLight;
+use crate::material::Material;
+use crate::precision::{SHAPE_PRECISION, f32_spacing, is_degenerate};
+use crate::scene::{LoadStats, Scene, TriangleShading, bvh_params};
+use glam::{DMat4, DQuat, DVec3, Vec2, Vec3};
+use obvhs::triangle::Triangle;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+impl Scene {
+    /// Loads a scene file: models, quads, camera, lights; builds the BVH.
+    pub fn load(file: &SceneFile, scene_path: &Path) -> Result<Scene, SceneError> {
+        let t0 = Instant::now();
+        let mut geometry = Geometry::default();
+        let gltf_camera = load_models(file, scene_path, &mut geometry)?;
+        for q in &file.quad {
+            geometry.add_quad(DVec3::from(q.center), DVec3::from(q.u), DVec3::from(q.v), q.color);
+        }
+
+        // Render space is centred on the camera (world, f64): f32 is most precise where the
+        // camera looks, and geometry far away cannot cost the visible part its precision.
+        let world_offset = camera_world_position(file, gltf_camera.as_ref()).unwrap_or(DVec3::ZERO);
+        let (lo, hi) = world_bounds(&geometry.triangles);
+        let mut warnings = Vec::new();
+        let lights = scene_lights(file, &geometry, 0.5 * (lo + hi), world_offset, scene_path, &mut warnings)?;
+        let camera = scene_camera(file, gltf_camera, world_offset, scene_path)?;
+        let load = t0.elapsed();
+
+        let mut scene = Self::build(geometry, lights, camera, world_offset, load);
+        warnings.append(&mut scene.warnings);
+        scene.warnings = warnings;
+        Ok(scene)
+    }
+
+    /// Builds the BVH and the BVH-ordered arrays from loaded geometry (positions in world
+    /// space, f64) and lights/camera already in render space (world minus `world_offset`,
+    /// the camera's world position for `Scene::load`). Triangles that f32 cannot hold in
+    /// render space are dropped, counted and named in `warnings`.
+    pub fn build(
+        geometry: Geometry,
+        lights: Vec<RectLight>,
+        camera: Camera,
+        world_offset: DVec3,
+        load: Duration,
+    ) -> Scene {
+        let Geometry { triangles: source, materials, textures, degenerate, .. } = geometry;
+        let mut tris = Vec::with_capacity(source.len());
+        let mut shading = Vec::with_capacity(source.len());
+        let mut precision = PrecisionTally { zero_area: degenerate, ..Default::default() };
+        for s in &source {
+            let Some(face) = precision.keep(s.p, world_offset) else { continue };
+            let p = s.p.map(|p| (p - world_offset).as_vec3());
+            tris.push(Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() });
+            shading.push(TriangleShading { n: s.n.unwrap_or([face; 3]), uv: s.uv, material: s.material });
+        }
+        let warnings = precision.warnings();
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for t in &tris {
+            for v in [t.v0, t.v1, t.v2] {
+                lo = lo.min(v.into());
+                hi = hi.max(v.into());
+            }
+        }
+        if tris.is_empty() {
+            (lo, hi) = (Vec3::ZERO, Vec3::ZERO);
+        }
+        let t_bvh = Instant::now();
+        let bvh = if tris.is_empty() {
+            None
+        } else {
+            let bvh =
+                obvhs::bvh2::builder::build_bvh2_from_tris(&tris, bvh_params(), &mut Duration::default());
+            // Reorder once so that leaves index our arrays directly.
+            tris = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
+            shading = bvh.primitive_indices.iter().map(|&i| shading[i as usize]).collect();
+            Some(bvh)
+        };
+        let bvh_time = t_bvh.elapsed();
+        let any_alpha_test = materials.iter().any(|m| !matches!(m.alpha, crate::material::AlphaMode::Opaque));
+        let stats = LoadStats {
+            load,
+            bvh: bvh_time,
+            triangles: tris.len() as u64,
+            degenerate_triangles: precision.zero_area + precision.collapsed + precision.out_of_range,
+            zero_area: precision.zero_area,
+            collapsed_in_f32: precision.collapsed,
+            beyond_f32_range: precision.out_of_range,
+            imprecise_triangles: precision.imprecise,
+        };
+        Scene {
+            triangles: tris,
+            shading,
+            materials,
+            textures,
+            bvh,
+            bounds_min: lo,
+            bounds_max: hi,
+            lights,
+            camera,
+            world_offset,
+            any_alpha_test,
+            stats,
+            warnings,
+        }
+    }
+}
+
+impl Geometry {
+    /// Adds a rectangle (two triangles, corners `center +- u/2 +- v/2`, front face along
+    /// u x v) with its own diffuse material.
+    pub fn add_quad(&mut self, center: DVec3, u: DVec3, v: DVec3, color: [f32; 3]) {
+        self.materials.push(Material::diffuse(color));
+        let material = self.materials.len() as u32 - 1;
+        let corner = |a: f64, b: f64| center + a * u + b * v;
+        let (p00, p10, p11, p01) =
+            (corner(-0.5, -0.5), corner(0.5, -0.5), corner(0.5, 0.5), corner(-0.5, 0.5));
+        for (p, uv) in [
+            ([p00, p10, p11], [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)]),
+            ([p00, p11, p01], [Vec2::new(0.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)]),
+        ] {
+            self.triangles.push(SourceTriangle { p, n: None, uv, material });
+        }
+    }
+}
+
+/// What `Scene::build` learns about each triangle's precision in render space, and the
+/// warnings it makes of it.
+#[derive(Debug, Default)]
+struct PrecisionTally {
+    zero_area: u64,
+    collapsed: u64,
+    /// The nearest collapsed triangle's distance from the camera.
+    collapsed_nearest: f64,
+    out_of_range: u64,
+    imprecise: u64,
+    /// The farthest imprecise triangle's distance from the camera and its f32 spacing.
+    imprecise_farthest: (f64, f64),
+}
+
+impl PrecisionTally {
+    /// The unit face normal (render space) of the world-space triangle `p` if f32 can hold
+    /// it relative to `origin`; else `None`, with the reason counted.
+    fn keep(&mut self, p: [DVec3; 3], origin: DVec3) -> Option<Vec3> {
+        if is_degenerate(p) {
+            self.zero_area += 1; // the loaders test this too; a caller of `build` may not
+            return None;
+        }
+        let rel = p.map(|p| p - origin);
+        let distance = rel.iter().map(|r| r.length()).fold(0.0, f64::max);
+        let p32 = rel.map(|r| r.as_vec3());
+        if !p32.iter().all(|v| v.is_finite()) {
+            self.out_of_range += 1;
+            return None;
+        }
+        let q = p32.map(|v| v.as_dvec3());
+        if is_degenerate(q) {
+            if self.collapsed == 0 || distance < self.collapsed_nearest {
+                self.collapsed_nearest = distance;
+            }
+            self.collapsed += 1;
+            return None;
+        }
+        let size = [q[1] - q[0], q[2] - q[1], q[0] - q[2]].iter().map(|e| e.length()).fold(0.0, f64::max);
+        let spacing = f32_spacing(distance);
+        if spacing > size / SHAPE_PRECISION {
+            if distance > self.imprecise_farthest.0 {
+                self.imprecise_farthest = (distance, spacing);
+            }
+            self.imprecise += 1;
+        }
+        let m = (q[1] - q[0]).abs().max_element();
+        Some(((q[1] - q[0]) / m).cross((q[2] - q[0]) / m).normalize().as_vec3())
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if self.zero_area > 0 {
+            w.push(format!(
+                "{} triangle(s) dropped: zero area (repeated or collinear vertices)",
+                self.zero_area
+            ));
+        }
+        if self.collapsed > 0 {
+            let d = self.collapsed_nearest;
+            w.push(format!(
+                "{} triangle(s) dropped: too small for f32 at their distance from the camera (the nearest \
+                 {d:.3e} m away, where f32 positions are spaced {:.3e} m)",
+                self.collapsed,
+                f32_spacing(d)
+            ));
+        }
+        if self.out_of_range > 0 {
+            w.push(format!(
+                "{} triangle(s) dropped: farther from the camera than f32 can hold ({:.1e} m)",
+                self.out_of_range,
+                f32::MAX
+            ));
+        }
+        if self.imprecise > 0 {
+            let (d, s) = self.imprecise_farthest;
+            w.push(format!(
+                "{} triangle(s) too far from the camera for f32 to keep their shape: the farthest \
+                 {d:.3e} m away, where f32 positions are spaced {s:.3e} m (over 1/{SHAPE_PRECISION} of \
+                 its size); render space is centred on the camera, so nearer geometry keeps its own \
+                 precision",
+                self.imprecise
+            ));
+        }
+        w
+    }
+}
+
+/// The camera's world position: the render-space origin. `None` when the scene file asks for
+/// a glTF camera the model lacks (`scene_camera` reports that).
+fn camera_world_position(file: &SceneFile, gltf_camera: Option<&GltfCamera>) -> Option<DVec3> {
+    if file.camera.from_gltf {
+        gltf_camera.map(|c| c.world.transform_point3(DVec3::ZERO))
+    } else {
+        file.camera.position.map(DVec3::from)
+    }
+}
+
+/// Loads every `[[model]]` into `geometry`, each scaled, turned about y and moved as its
+/// table says. Returns the first model's glTF camera, if it has one.
+fn load_models(
+    file: &SceneFile,
+    scene_path: &Path,
+    geometry: &mut Geometry,
+) -> Result<Option<GltfCamera>, SceneError> {
+    let mut gltf_camera = None;
+    for (i, m) in file.model.iter().enumerate() {
+        let path = SceneFile::resolve(scene_path, &m.path);
+        if !path.is_file() {
+            return Err(SceneError::new(
+                scene_path,
+                format!("model[{i}].path"),
+                format!("no such file: {}", path.display()),
+            ));
+        }
+        let model_from_file = DMat4::from_scale_rotation_translation(
+            DVec3::splat(m.scale),
+            DQuat::from_rotation_y(m.rotate_y_deg.to_radians()),
+            DVec3::from(m.translate),
+        );
+        let cam = load_gltf(&path, model_from_file, geometry)?;
+        if i == 0 {
+            gltf_camera = cam;
+        }
+    }
+    Ok(gltf_camera)
+}
+
+/// The (min, max) corners of the triangles' world positions; (+inf, -inf) without any.
+fn world_bounds(triangles: &[SourceTriangle]) -> (DVec3, DVec3) {
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for t in triangles {
+        for p in t.p {
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    (lo, hi)
+}
+
+/// The light `l` in render space (world minus `world_offset`), or why f32 cannot hold it
+/// there: its corners must stay a real rectangle in f32 at its distance from the camera, or
+/// its irradiance could not be computed (a 1e-30 m light 2 m away is one point in f32).
+pub fn light_in_render_space(l: &LightDesc, world_offset: DVec3) -> Result<RectLight, String> {
+    let centre = DVec3::from(l.center) - world_offset;
+    let light = RectLight::new(
+        centre.as_vec3(),
+        DVec3::from(l.u).as_vec3(),
+        DVec3::from(l.v).as_vec3(),
+        Vec3::from(l.radiance),
+    );
+    let c = light.corners().map(|c| c.as_dvec3());
+    if is_degenerate([c[0], c[1], c[2]]) || is_degenerate([c[0], c[2], c[3]]) || !light.normal.is_finite() {
+        let d = centre.length();
+        return Err(format!(
+            "the light ({:.3e} x {:.3e} m) is too small for f32 at its distance from the camera \
+             ({d:.3e} m, where f32 positions are spaced {:.3e} m): its area and irradiance cannot be computed",
+            DVec3::from(l.u).length(),
+            DVec3::from(l.v).length(),
+            f32_spacing(d),
+        ));
+    }
+    Ok(light)
+}
+
+/// The lights in render space (world minus `world_offset`): the scene file's, or else the
+/// emissive rectangles of the models (double-sided ones facing `scene_centre`, world space).
+/// An emissive rectangle f32 cannot hold is skipped with a line in `warnings`.
+fn scene_lights(
+    file: &SceneFile,
+    geometry: &Geometry,
+    scene_centre: DVec3,
+    world_offset: DVec3,
+    scene_path: &Path,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<RectLight>, SceneError> {
+    if !file.light.is_empty() {
+        return file
+            .light
+            .iter()
+            .enumerate()
+            .map(|(k, l)| {
+                light_in_render_space(l, world_offset)
+                    .map_err(|msg| SceneError::new(scene_path, format!("light[{k}].u"), msg))
+            })
+            .collect();
+    }
+    let mut found = Vec::new();
+    for e in &geometry.emitters {
+        if let Some(desc) = rectangle_light(e, scene_centre)
+            && validate_light(&desc, "emitter", scene_path).is_ok()
+        {
+            match light_in_render_space(&desc, world_offset) {
+                Ok(light) => found.push(light),
+                Err(msg) => warnings.push(format!("an emissive rectangle is not a light: {msg}")),
+            }
+        }
+    }
+    if found.is_empty() {
+        return Err(SceneError::new(
+            scene_path,
+            "light",
+            "no [[light]] given and the models have no emissive rectangles",
+        ));
+    }
+    Ok(found)
+}
+
+/// The camera in render space (world minus `world_offset`): the first model's glTF camera
+/// when `camera.from_gltf`, else the scene file's.
+fn scene_camera(
+    file: &SceneFile,
+    gltf_camera: Option<GltfCamera>,
+    world_offset: DVec3,
+    scene_path: &Path,
+) -> Result<Camera, SceneError> {
+    let to_render = |p: DVec3| (p - world_offset).as_vec3();
+    if file.camera.from_gltf {
+        let Some(cam) = gltf_camera else {
+            return Err(SceneError::new(
+                scene_path,
+                "camera.from_gltf",
+                format!("{} has no perspective camera", file.model[0].path.display()),
+            ));
+        };
+        let position = to_render(cam.world.transform_point3(DVec3::ZERO));
+        let forward = cam.world.transform_vector3(DVec3::NEG_Z).as_vec3();
+        let up = cam.world.transform_vector3(DVec3::Y).as_vec3();
+        if !(forward.length_squared() > 0.0 && forward.cross(up).length_squared() > 0.0) {
+            return Err(SceneError::new(
+                scene_path,
+                "camera.from_gltf",
+                "the glTF camera's transform is degenerate",
+            ));
+        }
+        Ok(Camera::from_frame(position, forward, up, cam.yfov as f32))
+    } else {
+        let c = &file.camera;
+        let (Some(pos), Some(at)) = (c.position, c.look_at) else {
+            unreachable!("checked by SceneFile::validate")
+        };
+        // The view direction in f64: at 1e-20 m its f32 length would underflow.
+        let forward = (DVec3::from(at) - DVec3::from(pos)).normalize().as_vec3();
+        Ok(Camera::from_frame(
+            to_render(DVec3::from(pos)),
+            forward,
+            DVec3::from(c.up).normalize().as_vec3(),
+            (c.yfov_deg as f32).to_radians(),
+        ))
+    }
+}
+
+/// Fits a rectangle to an emissive primitive: the smallest-area rectangle aligned with one
+/// of its triangle edges that contains every vertex, accepted when the triangles are
+/// coplanar and their total area equals the rectangle's (to 0.1%).
+fn rectangle_light(e: &EmitterCandidate, scene_centre: DVec3) -> Option<LightDesc> {
+    let mut normal = DVec3::ZERO;
+    let mut area = 0.0;
+    for t in &e.triangles {
+        let c = (t[1] - t[0]).cross(t[2] - t[0]);
+        normal += c;
+        area += 0.5 * c.length();
+    }
+    let normal = normal.try_normalize()?;
+    let origin = e.triangles[0][0];
+    let scale = e.triangles.iter().flatten().map(|p| (*p - origin).length()).fold(0.0, f64::max);
+    if e.triangles.iter().flatten().any(|p| (*p - origin).dot(normal).abs() > 1e-4 * scale) {
+        return None; // not planar
+    }
+    let mut best: Option<(f64, DVec3, DVec3, DVec3)> = None;
+    for t in e.triangles.iter().take(16) {
+        for k in 0..3 {
+            let Some(a) = (t[(k + 1) % 3] - t[k]).reject_from(normal).try_normalize() else { continue };
+            let b = normal.cross(a);
+            let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+            for p in e.triangles.iter().flatten() {
+                let d = *p - origin;
+                let (x, y) = (d.dot(a), d.dot(b));
+                lo = [lo[0].min(x), lo[1].min(y)];
+                hi = [hi[0].max(x), hi[1].max(y)];
+            }
+            let rect_area = (hi[0] - lo[0]) * (hi[1] - lo[1]);
+            if best.is_none_or(|(best_area, ..)| rect_area < best_area) {
+                let centre = origin + a * 0.5 * (lo[0] + hi[0]) + b * 0.5 * (lo[1] + hi[1]);
+                best = Some((rect_area, centre, a * (hi[0] - lo[0]), b * (hi[1] - lo[1])));
+            }
+        }
+    }
+    let (rect_area, center, mut u, v) = best?;
+    if rect_area.is_nan() || rect_area <= 0.0 || (rect_area - area).abs() > 1e-3 * rect_area {
+        return None;
+    }
+    // Emit toward the front face; a double-sided emitter faces the scene's centre.
+    let mut facing = normal;
+    if e.double_sided && (scene_centre - center).dot(facing) < 0.0 {
+        facing = -facing;
+    }
+    if u.cross(v).dot(facing) < 0.0 {
+        u = -u;
+    }
+    Some(LightDesc {
+        center: center.to_array(),
+        u: u.to_array(),
+        v: v.to_array(),
+        radiance: e.radiance.to_array(),
+    })
+}
