@@ -89,7 +89,14 @@ pub fn shadow_ray(
     target_error: Vec3,
     target_normal: Vec3,
 ) -> Option<Ray> {
-    let origin = offset_origin(p, p_error, n_geom, target - p);
+    shadow_ray_from(offset_origin(p, p_error, n_geom, target - p), target, target_error, target_normal)
+}
+
+/// [`shadow_ray`] from an origin already offset (`offset_origin(p, p_error, n_geom, target -
+/// p)`, which takes one of two values per surface point: a caller tracing many rays from one
+/// point computes it once per side).
+#[inline]
+pub fn shadow_ray_from(origin: Vec3, target: Vec3, target_error: Vec3, target_normal: Vec3) -> Option<Ray> {
     let end = offset_origin(target, target_error, target_normal, origin - target);
     segment_ray(origin, end)
 }

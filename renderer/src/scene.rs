@@ -5,7 +5,7 @@
 use crate::camera::Camera;
 use crate::light::RectLight;
 use crate::material::{Material, Texture};
-use crate::ray_origin::{interpolation_error, shadow_ray};
+use crate::ray_origin::{interpolation_error, shadow_ray, shadow_ray_from};
 use glam::{DVec3, Vec2, Vec3};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::Ray, triangle::Triangle};
 use std::time::Duration;
@@ -102,7 +102,7 @@ impl Scene {
     /// ~1e20 across) or `t` overflows, the whole test is redone in f64 ([`Self::intersect_f64`]),
     /// so tiny and huge triangles are hit like any other. The common path costs one more
     /// comparison than before.
-    #[inline]
+    #[inline(always)]
     fn intersect_triangle(tri: &Triangle, ray: &Ray) -> Option<(f32, f32, f32)> {
         let e1 = tri.v1 - tri.v0;
         let e2 = tri.v2 - tri.v0;
@@ -182,7 +182,9 @@ impl Scene {
 
     /// The primitive test shared by closest-hit and occlusion: a hit that the alpha test
     /// does not cut out.
-    #[inline]
+    /// Always inlined: it runs once per triangle a ray meets, inside the BVH traversal (as a
+    /// call it cost ~20% of `traced` on monobloc-chair, measured).
+    #[inline(always)]
     fn hit_distance(&self, ray: &Ray, slot: usize) -> f32 {
         match Self::intersect_triangle(&self.triangles[slot], ray) {
             None => f32::INFINITY,
@@ -267,6 +269,22 @@ impl Scene {
         target_normal: Vec3,
     ) -> bool {
         match shadow_ray(p, p_error, n_geom, target, target_error, target_normal) {
+            Some(ray) => self.occluded(ray),
+            None => false,
+        }
+    }
+
+    /// [`Self::segment_occluded`] from an origin already offset
+    /// ([`crate::ray_origin::shadow_ray_from`]).
+    #[inline]
+    pub fn segment_occluded_from(
+        &self,
+        origin: Vec3,
+        target: Vec3,
+        target_error: Vec3,
+        target_normal: Vec3,
+    ) -> bool {
+        match shadow_ray_from(origin, target, target_error, target_normal) {
             Some(ray) => self.occluded(ray),
             None => false,
         }

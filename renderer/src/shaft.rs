@@ -66,12 +66,36 @@ impl Face {
 /// at or above `h_o`, over the cut.
 #[inline]
 pub fn covers(p: Vec3, origin: Vec3, n_geom: Vec3, target: Vec3, target_error: Vec3) -> bool {
-    let h_o = n_geom.dot(origin - p);
     let w = target - p;
-    n_geom.dot(w)
-        >= h_o * (1.0 + 2.0 * SHADOW_EPSILON)
-            + 2.0 * (target_error.x + target_error.y + target_error.z)
-            + gamma(16) * w.abs().element_sum()
+    Cover::new(p, origin, n_geom, target_error).covers(n_geom.dot(w), w)
+}
+
+/// [`covers`] with its per-point terms evaluated once: for every target whose error bound is
+/// at most `target_error` in each component (e.g. [`RectLight::max_point_error`] for any
+/// point of the light), [`Cover::covers`] accepts only rays [`covers`] accepts with the
+/// target's own bound (the same expression, and f32 rounding is monotone). With the exact
+/// bound it is [`covers`], bit for bit.
+#[derive(Debug, Clone, Copy)]
+pub struct Cover {
+    /// `h_o (1 + 2 SHADOW_EPSILON) + 2 (sum of the target's error)`.
+    floor: f32,
+}
+
+impl Cover {
+    #[inline]
+    pub fn new(p: Vec3, origin: Vec3, n_geom: Vec3, target_error: Vec3) -> Self {
+        let h_o = n_geom.dot(origin - p);
+        Cover {
+            floor: h_o * (1.0 + 2.0 * SHADOW_EPSILON)
+                + 2.0 * (target_error.x + target_error.y + target_error.z),
+        }
+    }
+
+    /// Whether the ray to the target at `w = target - p` (`height = n_geom . w`) is covered.
+    #[inline]
+    pub fn covers(&self, height: f32, w: Vec3) -> bool {
+        height >= self.floor + gamma(16) * w.abs().element_sum()
+    }
 }
 
 /// Whether [`covers`] accepts every point of `light` (within its error bound), from its
@@ -392,9 +416,16 @@ pub fn clear_leaves_mapped(
     (mask, tests)
 }
 
+/// The first stratum (of `n`) of leaf `x` (of `l` leaves on that axis): samples
+/// `first_stratum(x) <= i < first_stratum(x + 1)` lie in leaf `x` ([`leaf_bit`]).
+#[inline]
+pub fn first_stratum(x: u32, n: u32, l: usize) -> u32 {
+    (x * n).div_ceil(l as u32)
+}
+
 /// Leaves per axis for an `nx` x `ny` strata grid: at most [`LEAVES`], at most one per
 /// stratum.
-fn leaves_per_axis(strata: (u32, u32)) -> (usize, usize) {
+pub fn leaves_per_axis(strata: (u32, u32)) -> (usize, usize) {
     (LEAVES.min(strata.0 as usize), LEAVES.min(strata.1 as usize))
 }
 

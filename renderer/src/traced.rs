@@ -194,10 +194,26 @@ impl LightShadowing for Traced {
         {
             return 1.0;
         }
+        // Per point, not per sample: the covered test's terms with the light's largest point
+        // error (every sample's own bound is at most that: a stricter test, so it still
+        // accepts only rays the shaft holds), and the ray origin on the lit side (the one
+        // `offset_origin` gives every target with n_geom . (target - p) >= 0).
+        let cover = shaft::Cover::new(q.p, origin, q.n_geom, light.max_point_error());
+        let (lx, ly) = shaft::leaves_per_axis((nx, ny));
         let mut rng = Rng::new(q.seed);
         let (mut above, mut unblocked, mut traced) = (0u32, 0u32, 0u32);
         for j in 0..ny {
+            // This row's clear leaves, as bits 0..lx; leaf column `x` holds samples
+            // first(x) <= i < first(x + 1) ([`shaft::leaf_bit`], stepped instead of divided).
+            let row_clear =
+                (clear >> (shaft::LEAVES as u32 * (j * ly as u32 / ny))) & ((1 << shaft::LEAVES) - 1);
+            let (mut col, mut next_col) = (0u32, shaft::first_stratum(1, nx, lx));
             for i in 0..nx {
+                if i == next_col {
+                    col += 1;
+                    next_col = shaft::first_stratum(col + 1, nx, lx);
+                }
+                debug_assert_eq!(row_clear & (1 << col) != 0, clear & shaft::leaf_bit(i, j, (nx, ny)) != 0);
                 let mut a = (i as f32 + rng.next_f32()) / nx as f32;
                 let mut b = (j as f32 + rng.next_f32()) / ny as f32;
                 if let Some(w) = &warp {
@@ -205,21 +221,28 @@ impl LightShadowing for Traced {
                     (a, b) = (wa as f32, wb as f32);
                 }
                 let target = light.point(a, b);
-                if q.n_shading.dot(target - q.p) <= 0.0 {
+                let w = target - q.p;
+                if q.n_shading.dot(w) <= 0.0 {
                     // Below the horizon: not part of the light this point sees. (A warped
                     // sample is above it in f64; f32 rounding may still drop one at the cut.)
                     continue;
                 }
                 above += 1;
-                let target_error = light.point_error(a, b);
-                if clear & shaft::leaf_bit(i, j, (nx, ny)) != 0
-                    && shaft::covers(q.p, origin, q.n_geom, target, target_error)
+                let height = q.n_geom.dot(w);
+                // `max_point_error` bounds points with a, b in [0, 1] (a warped sample off the
+                // unit square by a rounding is traced instead).
+                if row_clear & (1 << col) != 0
+                    && (warp.is_none() || ((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)))
+                    && cover.covers(height, w)
                 {
                     unblocked += 1; // inside a clear shaft: proven unblocked
                     continue;
                 }
                 traced += 1;
-                if !scene.segment_occluded(q.p, q.p_error, q.n_geom, target, target_error, light.normal) {
+                // `offset_origin(p, p_error, n_geom, target - p)`: the lit side's origin unless
+                // the target is under the geometric tangent plane.
+                let from = if height < 0.0 { offset_origin(q.p, q.p_error, q.n_geom, w) } else { origin };
+                if !scene.segment_occluded_from(from, target, light.point_error(a, b), light.normal) {
                     unblocked += 1;
                 }
             }
