@@ -113,6 +113,14 @@ pub struct Scene {
     pub stats: LoadStats,
 }
 
+/// Whether a camera frame in render space makes a camera: a finite position, and a view
+/// direction and up vector that give a right vector in f32 (as [`Camera::from_frame`]
+/// computes it). The scene file checks its camera in f64; recentring on the models can put
+/// position and look_at on one f32 value, or out of f32's range (found by fuzzing).
+fn camera_frame_ok(position: Vec3, forward: Vec3, up: Vec3) -> bool {
+    position.is_finite() && forward.try_normalize().and_then(|f| f.cross(up).try_normalize()).is_some()
+}
+
 /// The BVH build preset. Bvh2 (not CwBvh): CwBvh clamps t to >= 1e-4 in world units, which
 /// misses contact occluders in millimetre-scale scenes, and it is not faster for the
 /// pixel-ordered rays we trace (see ARCHITECTURE.md and `benches/traced_shadows.rs`).
@@ -209,11 +217,11 @@ impl Scene {
             let position = to_render(cam.world.transform_point3(DVec3::ZERO));
             let forward = cam.world.transform_vector3(DVec3::NEG_Z).as_vec3();
             let up = cam.world.transform_vector3(DVec3::Y).as_vec3();
-            if !(forward.length_squared() > 0.0 && forward.cross(up).length_squared() > 0.0) {
+            if !camera_frame_ok(position, forward, up) {
                 return Err(SceneError::new(
                     scene_path,
                     "camera.from_gltf",
-                    "the glTF camera's transform is degenerate",
+                    "the glTF camera's transform is degenerate, or out of f32's range once the scene is centred on the models",
                 ));
             }
             Camera::from_frame(position, forward, up, cam.yfov as f32)
@@ -222,12 +230,21 @@ impl Scene {
             let (Some(pos), Some(at)) = (c.position, c.look_at) else {
                 unreachable!("checked by SceneFile::validate")
             };
-            Camera::look_at(
-                to_render(DVec3::from(pos)),
-                to_render(DVec3::from(at)),
-                DVec3::from(c.up).as_vec3(),
-                c.yfov_deg as f32,
-            )
+            let (position, look_at, up) =
+                (to_render(DVec3::from(pos)), to_render(DVec3::from(at)), DVec3::from(c.up).as_vec3());
+            if !camera_frame_ok(position, look_at - position, up) {
+                return Err(SceneError::new(
+                    scene_path,
+                    "camera",
+                    format!(
+                        "position, look_at and up give no view in f32 once the scene is centred on \
+                         the models (at {:.3e}, {:.3e}, {:.3e}): the camera is too far from them, or \
+                         their coordinates too large",
+                        world_offset.x, world_offset.y, world_offset.z
+                    ),
+                ));
+            }
+            Camera::look_at(position, look_at, up, c.yfov_deg as f32)
         };
         let load = t0.elapsed();
 
