@@ -56,7 +56,7 @@ pub fn load_gltf(
     geometry: &mut Geometry,
 ) -> Result<Option<GltfCamera>, SceneError> {
     let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
-    let gltf = gltf::Gltf::open(path).map_err(|e| fail("", format!("cannot load glTF: {e}")))?;
+    let gltf = open_gltf(path).map_err(|e| fail("", format!("cannot load glTF: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
     let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
         .map_err(|e| fail("buffers", format!("cannot load buffer: {e}")))?;
@@ -81,6 +81,9 @@ pub fn load_gltf(
                 let slot = match image_slots.get(&image.index()) {
                     Some(&s) => s,
                     None => {
+                        if let Some(msg) = image_source_problem(doc, image.index(), &buffers) {
+                            return Err(fail(&format!("images[{}]", image.index()), msg));
+                        }
                         let data = gltf::image::Data::from_source(image.source(), Some(base), &buffers)
                             .map_err(|e| {
                                 fail(&format!("images[{}]", image.index()), format!("cannot decode: {e}"))
@@ -169,6 +172,70 @@ pub fn load_gltf(
         }
     }
     Ok(camera)
+}
+
+/// `gltf::Gltf::open` with two holes closed:
+/// - `open` trusts a .glb header: it allocates the header's length (up to 4 GiB) before
+///   reading the rest (found by fuzzing), and computes `length - 12`, which underflows for a
+///   length below the header's own 12 bytes. Here the file is read first and the length
+///   checked against it.
+/// - gltf-json's validation indexes `accessors` by each primitive's POSITION before checking
+///   that index (found by fuzzing), so a document is checked for that first.
+fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
+    use gltf::json::{mesh::Semantic, validation::Checked};
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    if bytes.starts_with(b"glTF") && bytes.len() >= 12 {
+        let length = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        if length < 12 || length as usize > bytes.len() {
+            return Err(format!("GLB header length {length} does not fit the file's {} bytes", bytes.len()));
+        }
+    }
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| e.to_string())?;
+    let json = gltf.document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(i) = prim.attributes.get(&Checked::Valid(Semantic::Positions))
+                && i.value() >= json.accessors.len()
+            {
+                return Err(format!(
+                    "meshes[{m}].primitives[{p}].attributes.POSITION: no accessor {} ({} accessors)",
+                    i.value(),
+                    json.accessors.len()
+                ));
+            }
+        }
+    }
+    let document = gltf::Document::from_json(gltf.document.into_json()).map_err(|e| e.to_string())?;
+    Ok(gltf::Gltf { document, blob: gltf.blob })
+}
+
+/// What gltf's `Image::source` and `image::Data::from_source` panic on and its validation
+/// lets through: a bufferView without a mimeType and a bufferView outside its buffer (both
+/// found by fuzzing), and neither a uri nor a bufferView (the unwrap beside the first).
+fn image_source_problem(
+    doc: &gltf::Document,
+    index: usize,
+    buffers: &[gltf::buffer::Data],
+) -> Option<String> {
+    let json = &doc.as_json().images[index];
+    match (&json.buffer_view, &json.mime_type, &json.uri) {
+        (Some(_), None, _) => Some("has a bufferView but no mimeType".into()),
+        (None, _, None) => Some("has neither a uri nor a bufferView".into()),
+        (Some(v), Some(_), _) => {
+            let view = doc.views().nth(v.value())?; // the index is validated
+            let len = buffers[view.buffer().index()].len();
+            match view.offset().checked_add(view.length()) {
+                Some(end) if end <= len => None,
+                _ => Some(format!(
+                    "bufferViews[{}] (offset {}, length {}) lies outside its buffer ({len} bytes)",
+                    v.value(),
+                    view.offset(),
+                    view.length()
+                )),
+            }
+        }
+        (None, _, Some(_)) => None,
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
