@@ -134,7 +134,16 @@ pub fn load_gltf(
     // Depth-first over the node tree; an explicit stack so deep hierarchies cannot overflow.
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, model_from_file, 0)).collect();
     stack.reverse();
+    // The spec's nodes form disjoint trees: a node reached twice is shared or in a cycle, and
+    // a chain of nodes each listing the next twice is 2^n visits (a hang, not an error).
+    let mut visited = vec![false; doc.nodes().len()];
     while let Some((node, parent, depth)) = stack.pop() {
+        if std::mem::replace(&mut visited[node.index()], true) {
+            return Err(fail(
+                &format!("nodes[{}]", node.index()),
+                "reached twice: a node may have one parent and appear in a scene once".into(),
+            ));
+        }
         if depth > 256 {
             return Err(fail(
                 &format!("nodes[{}]", node.index()),
