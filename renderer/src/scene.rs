@@ -121,6 +121,24 @@ fn camera_frame_ok(position: Vec3, forward: Vec3, up: Vec3) -> bool {
     position.is_finite() && forward.try_normalize().and_then(|f| f.cross(up).try_normalize()).is_some()
 }
 
+/// Raises `bvh.max_depth` to the tree's depth. obvhs sizes its traversal stacks by it, and its
+/// build can leave it below the real depth after reinsertion (found by fuzzing: 143 levels,
+/// max_depth 127, caught by obvhs's debug validation); a push past a fixed stack is clamped
+/// there, dropping a subtree: missed hits.
+fn cover_depth(bvh: &mut Bvh2) {
+    let mut depth = 0;
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((i, d)) = stack.pop() {
+        depth = depth.max(d);
+        let node = &bvh.nodes[i];
+        if node.prim_count == 0 {
+            let first = node.first_index as usize;
+            stack.extend([(first, d + 1), (first + 1, d + 1)]);
+        }
+    }
+    bvh.max_depth = bvh.max_depth.max(depth + 1);
+}
+
 /// The BVH build preset. Bvh2 (not CwBvh): CwBvh clamps t to >= 1e-4 in world units, which
 /// misses contact occluders in millimetre-scale scenes, and it is not faster for the
 /// pixel-ordered rays we trace (see ARCHITECTURE.md and `benches/traced_shadows.rs`).
@@ -300,8 +318,9 @@ impl Scene {
         let bvh = if tris.is_empty() {
             None
         } else {
-            let bvh =
+            let mut bvh =
                 obvhs::bvh2::builder::build_bvh2_from_tris(&tris, bvh_params(), &mut Duration::default());
+            cover_depth(&mut bvh);
             // Reorder once so that leaves index our arrays directly.
             tris = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
             shading = bvh.primitive_indices.iter().map(|&i| shading[i as usize]).collect();
