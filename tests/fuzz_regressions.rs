@@ -36,6 +36,9 @@ const EXPECTED: &[(&str, &str, Expect)] = &[
     ("gltf", "image-view-outside-buffer.glb", Expect::Refused("images[0]", "lies outside its buffer")),
     // gltf-json's validation indexed the accessors by POSITION before checking the index.
     ("gltf", "position-accessor-out-of-range.gltf", Expect::Refused("", "POSITION: no accessor 0")),
+    // gltf's import unwrapped the percent-decoding of a relative URI (%FF, %C0: not UTF-8).
+    ("gltf", "handmade-buffer-uri-not-utf8.gltf", Expect::Refused("", "buffers[0].uri: its %-escapes")),
+    ("gltf", "handmade-image-uri-not-utf8.glb", Expect::Refused("images[0]", "uri: its %-escapes")),
     // obvhs left Bvh2::max_depth (127) below the tree's depth (143), which sizes its traversal
     // stacks (its debug validation fired); Scene::build now raises it. Loads.
     ("gltf", "bvh-deeper-than-max-depth.gltf", Expect::Loaded),

@@ -183,13 +183,20 @@ pub fn load_gltf(
     Ok(camera)
 }
 
-/// `gltf::Gltf::open` with two holes closed:
+/// Whether gltf's import can decode `uri`: it unwraps `urlencoding::decode` of a URI without
+/// a scheme, which fails (a panic) when the %-escapes are not UTF-8, e.g. `%FF.bin`.
+fn decodable_uri(uri: &str) -> bool {
+    uri.contains(':') || urlencoding::decode(uri).is_ok()
+}
+
+/// `gltf::Gltf::open` with three holes closed:
 /// - `open` trusts a .glb header: it allocates the header's length (up to 4 GiB) before
 ///   reading the rest (found by fuzzing), and computes `length - 12`, which underflows for a
 ///   length below the header's own 12 bytes. Here the file is read first and the length
 ///   checked against it.
 /// - gltf-json's validation indexes `accessors` by each primitive's POSITION before checking
 ///   that index (found by fuzzing), so a document is checked for that first.
+/// - gltf's import panics on a buffer URI whose %-escapes are not UTF-8 ([`decodable_uri`]).
 fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
     use gltf::json::{mesh::Semantic, validation::Checked};
     let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
@@ -201,6 +208,13 @@ fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
     }
     let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| e.to_string())?;
     let json = gltf.document.as_json();
+    for (i, buffer) in json.buffers.iter().enumerate() {
+        if let Some(uri) = &buffer.uri
+            && !decodable_uri(uri)
+        {
+            return Err(format!("buffers[{i}].uri: its %-escapes do not decode to UTF-8"));
+        }
+    }
     for (m, mesh) in json.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
             if let Some(i) = prim.attributes.get(&Checked::Valid(Semantic::Positions))
@@ -220,7 +234,8 @@ fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
 
 /// What gltf's `Image::source` and `image::Data::from_source` panic on and its validation
 /// lets through: a bufferView without a mimeType and a bufferView outside its buffer (both
-/// found by fuzzing), and neither a uri nor a bufferView (the unwrap beside the first).
+/// found by fuzzing), neither a uri nor a bufferView (the unwrap beside the first), and a
+/// uri that gltf cannot decode ([`decodable_uri`]).
 fn image_source_problem(
     doc: &gltf::Document,
     index: usize,
@@ -230,6 +245,9 @@ fn image_source_problem(
     match (&json.buffer_view, &json.mime_type, &json.uri) {
         (Some(_), None, _) => Some("has a bufferView but no mimeType".into()),
         (None, _, None) => Some("has neither a uri nor a bufferView".into()),
+        (None, _, Some(uri)) if !decodable_uri(uri) => {
+            Some("uri: its %-escapes do not decode to UTF-8".into())
+        }
         (Some(v), Some(_), _) => {
             let view = doc.views().nth(v.value())?; // the index is validated
             let len = buffers[view.buffer().index()].len();
