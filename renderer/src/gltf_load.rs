@@ -56,7 +56,7 @@ pub fn load_gltf(
     geometry: &mut Geometry,
 ) -> Result<Option<GltfCamera>, SceneError> {
     let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
-    let gltf = gltf::Gltf::open(path).map_err(|e| match truncated_glb(path) {
+    let gltf = open_gltf(path).map_err(|e| match truncated_glb(path) {
         Some(msg) => fail("", msg),
         None => fail("", format!("cannot load glTF: {e}")),
     })?;
@@ -172,7 +172,7 @@ fn load_materials(
         }
         let base_color_texture = match pbr.base_color_texture() {
             None => None,
-            Some(info) => Some(texture_ref(path, base, &info, buffers, &mut image_slots, geometry)?),
+            Some(info) => Some(texture_ref(path, base, doc, &info, buffers, &mut image_slots, geometry)?),
         };
         let alpha = match m.alpha_mode() {
             gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
@@ -190,6 +190,7 @@ fn load_materials(
 fn texture_ref(
     path: &Path,
     base: &Path,
+    doc: &gltf::Document,
     info: &gltf::texture::Info,
     buffers: &[gltf::buffer::Data],
     image_slots: &mut HashMap<usize, u32>,
@@ -201,6 +202,9 @@ fn texture_ref(
     let slot = match image_slots.get(&image.index()) {
         Some(&s) => s,
         None => {
+            if let Some(msg) = image_source_problem(doc, image.index(), buffers) {
+                return Err(fail(&format!("images[{}]", image.index()), msg));
+            }
             let data = gltf::image::Data::from_source(image.source(), Some(base), buffers).map_err(|e| {
                 let (key, what) = match image.source() {
                     gltf::image::Source::Uri { uri, .. } => match uri_path(base, uri) {
@@ -257,7 +261,16 @@ fn load_nodes(
     // Depth-first over the node tree; an explicit stack so deep hierarchies cannot overflow.
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, model_from_file, 0)).collect();
     stack.reverse();
+    // The spec's nodes form disjoint trees: a node reached twice is shared or in a cycle, and
+    // a chain of nodes each listing the next twice is 2^n visits (a hang, not an error).
+    let mut visited = std::collections::HashSet::new();
     while let Some((node, parent, depth)) = stack.pop() {
+        if !visited.insert(node.index()) {
+            return Err(fail(
+                &format!("nodes[{}]", node.index()),
+                "reached twice: a node may have one parent and appear in a scene once".into(),
+            ));
+        }
         if depth > 256 {
             return Err(fail(
                 &format!("nodes[{}]", node.index()),
@@ -295,6 +308,88 @@ fn load_nodes(
         }
     }
     Ok(camera)
+}
+
+/// Whether gltf's import can decode `uri`: it unwraps `urlencoding::decode` of a URI without
+/// a scheme, which fails (a panic) when the %-escapes are not UTF-8, e.g. `%FF.bin`.
+fn decodable_uri(uri: &str) -> bool {
+    uri.contains(':') || urlencoding::decode(uri).is_ok()
+}
+
+/// `gltf::Gltf::open` with three holes closed:
+/// - `open` trusts a .glb header: it allocates the header's length (up to 4 GiB) before
+///   reading the rest (found by fuzzing), and computes `length - 12`, which underflows for a
+///   length below the header's own 12 bytes. Here the file is read first and the length
+///   checked against it.
+/// - gltf-json's validation indexes `accessors` by each primitive's POSITION before checking
+///   that index (found by fuzzing), so a document is checked for that first.
+/// - gltf's import panics on a buffer URI whose %-escapes are not UTF-8 ([`decodable_uri`]).
+fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
+    use gltf::json::{mesh::Semantic, validation::Checked};
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    if bytes.starts_with(b"glTF") && bytes.len() >= 12 {
+        let length = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        if length < 12 || length as usize > bytes.len() {
+            return Err(format!("GLB header length {length} does not fit the file's {} bytes", bytes.len()));
+        }
+    }
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| e.to_string())?;
+    let json = gltf.document.as_json();
+    for (i, buffer) in json.buffers.iter().enumerate() {
+        if let Some(uri) = &buffer.uri
+            && !decodable_uri(uri)
+        {
+            return Err(format!("buffers[{i}].uri: its %-escapes do not decode to UTF-8"));
+        }
+    }
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(i) = prim.attributes.get(&Checked::Valid(Semantic::Positions))
+                && i.value() >= json.accessors.len()
+            {
+                return Err(format!(
+                    "meshes[{m}].primitives[{p}].attributes.POSITION: no accessor {} ({} accessors)",
+                    i.value(),
+                    json.accessors.len()
+                ));
+            }
+        }
+    }
+    let document = gltf::Document::from_json(gltf.document.into_json()).map_err(|e| e.to_string())?;
+    Ok(gltf::Gltf { document, blob: gltf.blob })
+}
+
+/// What gltf's `Image::source` and `image::Data::from_source` panic on and its validation
+/// lets through: a bufferView without a mimeType and a bufferView outside its buffer (both
+/// found by fuzzing), neither a uri nor a bufferView (the unwrap beside the first), and a
+/// uri that gltf cannot decode ([`decodable_uri`]).
+fn image_source_problem(
+    doc: &gltf::Document,
+    index: usize,
+    buffers: &[gltf::buffer::Data],
+) -> Option<String> {
+    let json = &doc.as_json().images[index];
+    match (&json.buffer_view, &json.mime_type, &json.uri) {
+        (Some(_), None, _) => Some("has a bufferView but no mimeType".into()),
+        (None, _, None) => Some("has neither a uri nor a bufferView".into()),
+        (None, _, Some(uri)) if !decodable_uri(uri) => {
+            Some("uri: its %-escapes do not decode to UTF-8".into())
+        }
+        (Some(v), Some(_), _) => {
+            let view = doc.views().nth(v.value())?; // the index is validated
+            let len = buffers[view.buffer().index()].len();
+            match view.offset().checked_add(view.length()) {
+                Some(end) if end <= len => None,
+                _ => Some(format!(
+                    "bufferViews[{}] (offset {}, length {}) lies outside its buffer ({len} bytes)",
+                    v.value(),
+                    view.offset(),
+                    view.length()
+                )),
+            }
+        }
+        (None, _, Some(_)) => None,
+    }
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -86,6 +86,32 @@ pub struct Scene {
     pub warnings: Vec<String>,
 }
 
+/// Whether a camera frame in render space makes a camera: a finite position, and a view
+/// direction and up vector that give a right vector in f32 (as [`Camera::from_frame`]
+/// computes it). The scene file checks its camera in f64; recentring on the models can put
+/// position and look_at on one f32 value, or out of f32's range (found by fuzzing).
+pub(crate) fn camera_frame_ok(position: Vec3, forward: Vec3, up: Vec3) -> bool {
+    position.is_finite() && forward.try_normalize().and_then(|f| f.cross(up).try_normalize()).is_some()
+}
+
+/// Raises `bvh.max_depth` to the tree's depth. obvhs sizes its traversal stacks by it, and its
+/// build can leave it below the real depth after reinsertion (found by fuzzing: 143 levels,
+/// max_depth 127, caught by obvhs's debug validation); a push past a fixed stack is clamped
+/// there, dropping a subtree: missed hits.
+pub(crate) fn cover_depth(bvh: &mut Bvh2) {
+    let mut depth = 0;
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((i, d)) = stack.pop() {
+        depth = depth.max(d);
+        let node = &bvh.nodes[i];
+        if node.prim_count == 0 {
+            let first = node.first_index as usize;
+            stack.extend([(first, d + 1), (first + 1, d + 1)]);
+        }
+    }
+    bvh.max_depth = bvh.max_depth.max(depth + 1);
+}
+
 /// The BVH build preset. Bvh2 (not CwBvh): CwBvh clamps t to >= 1e-4 in world units, which
 /// misses contact occluders in millimetre-scale scenes, and it is not faster for the
 /// pixel-ordered rays we trace (see docs/notes/2026-11-21-bvh-choice.md and `benches/traced_shadows.rs`).

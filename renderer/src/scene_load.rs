@@ -9,7 +9,7 @@ use crate::gltf_load::{EmitterCandidate, Geometry, GltfCamera, SourceTriangle, l
 use crate::light::RectLight;
 use crate::material::Material;
 use crate::precision::{SHAPE_PRECISION, f32_spacing, is_degenerate};
-use crate::scene::{LoadStats, Scene, TriangleShading, bvh_params};
+use crate::scene::{LoadStats, Scene, TriangleShading, bvh_params, camera_frame_ok, cover_depth};
 use glam::{DMat4, DQuat, DVec3, Vec2, Vec3};
 use obvhs::triangle::Triangle;
 use std::path::Path;
@@ -76,8 +76,9 @@ impl Scene {
         let bvh = if tris.is_empty() {
             None
         } else {
-            let bvh =
+            let mut bvh =
                 obvhs::bvh2::builder::build_bvh2_from_tris(&tris, bvh_params(), &mut Duration::default());
+            cover_depth(&mut bvh);
             // Reorder once so that leaves index our arrays directly.
             tris = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
             shading = bvh.primitive_indices.iter().map(|&i| shading[i as usize]).collect();
@@ -358,11 +359,11 @@ fn scene_camera(
         let position = to_render(cam.world.transform_point3(DVec3::ZERO));
         let forward = cam.world.transform_vector3(DVec3::NEG_Z).as_vec3();
         let up = cam.world.transform_vector3(DVec3::Y).as_vec3();
-        if !(forward.length_squared() > 0.0 && forward.cross(up).length_squared() > 0.0) {
+        if !camera_frame_ok(position, forward, up) {
             return Err(SceneError::new(
                 scene_path,
                 "camera.from_gltf",
-                "the glTF camera's transform is degenerate",
+                "the glTF camera's transform is degenerate, or out of f32's range",
             ));
         }
         Ok(Camera::from_frame(position, forward, up, cam.yfov as f32))
