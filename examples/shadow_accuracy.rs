@@ -17,7 +17,7 @@
 //! Shadow cost = shadow_prepare + (render time - render time of `none`).
 
 use renderer::{LightShadowing, RenderSettings, Scene, SceneFile, Traced, TracedParams, Unshadowed, render};
-use shadow_plugin::{Blend, DepthMapParams, DepthMarch, EdgeTable, EdgeTableParams, Heightfield};
+use shadow_plugin::{Blend, DepthMapParams, DepthMarch, EdgeTable, EdgeTableParams, Heightfield, Reading};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -111,13 +111,18 @@ fn main() {
     let settings = RenderSettings { width, height, spp: 1, seed: 0, mask_budget_bytes };
     let et = |res: u32, grid: [u32; 3], blend: Blend, heightfield: Heightfield| EdgeTableParams {
         depth_map: DepthMapParams::new(res),
+        reading: Reading::Published,
         grid,
         blend,
         heightfield,
         mirrored: EdgeTableParams::default().mirrored,
     };
-    let d = EdgeTableParams::default();
-    let mut configs: Vec<(String, EdgeTableParams)> = vec![("edge_table default".to_string(), d)];
+    // The exact reading (the default), then the published reading's settings around its
+    // previous default (what the rows below vary).
+    let exact = EdgeTableParams::default();
+    let d = EdgeTableParams { reading: Reading::Published, ..exact };
+    let mut configs: Vec<(String, EdgeTableParams)> =
+        vec![("edge_table default (exact)".to_string(), exact), ("edge_table published".to_string(), d)];
     for &res in &map_sizes {
         for grid in [[4, 4, 4], [8, 8, 4]] {
             for blend in [Blend::Nearest, Blend::Trilinear] {

@@ -40,7 +40,7 @@ pub const METHODS: &[Registered] = &[
     ),
     Registered::of::<Unshadowed>("No shadows (V = 1): the cost floor"),
     Registered::of::<EdgeTableParams>(
-        "Edge-table masks over a light-space depth map (Egan & Neulander 2004)",
+        "Edge-table masks (Egan & Neulander 2004) classifying each ray against conservative depth bounds; the BVH traces only what they cannot settle: exact",
     ),
     Registered::of::<DepthMarchParams>(
         "Each shadow ray marched through the same depth map (walls and floors)",

@@ -228,8 +228,11 @@ samples = 64
         let v = image::open(dir.join(format!("{method}.visibility.0.exr"))).unwrap().into_rgb32f().into_raw();
         let report: serde_json::Value =
             serde_json::from_slice(&std::fs::read(dir.join(format!("{method}.json"))).unwrap()).unwrap();
+        // The exact edge_table reading counts such points as `points_off_map` (every ray
+        // of its own sample set traced); depth_march falls back to traced.
+        let off_map = if method == "edge_table" { "points_off_map" } else { "fallbacks" };
         if method != "traced" {
-            assert!(report["counters"]["fallbacks"].as_u64().unwrap() > 0, "{method}: no fallbacks");
+            assert!(report["counters"][off_map].as_u64().unwrap() > 0, "{method}: no {off_map}");
         }
         vis.push(v);
     }

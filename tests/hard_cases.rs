@@ -398,7 +398,8 @@ fn floor_lit_at_a_grazing_angle() {
         quads,
         light: light_toward([-3.5, 0.6, 0.0], [0.0, 0.0, 0.0], 0.5),
         camera: camera([0.5, 3.5, 3.5], [0.0, 0.0, 0.0]),
-        edge_table: "grazing_cos = 0.0",
+        // The published reading (its grazing policy is what this case measures).
+        edge_table: "reading = \"published\"\ngrazing_cos = 0.0",
     };
     let (map_alone, m) = run_case(&dir, "grazing_floor", &scene);
     // Measured: RMSE 0.016, p99 0.066, max 0.094 with eight depth levels (0.016, 0.063, 0.12
@@ -412,7 +413,7 @@ fn floor_lit_at_a_grazing_angle() {
     // The default policy: pixels whose point faces the light's centre at a cosine below
     // DEFAULT_GRAZING_COS are the traced truth to the bit (the fallback draws the same
     // samples from the same seed), and the report counts exactly them.
-    let policy = Scene { edge_table: "", ..scene.clone() };
+    let policy = Scene { edge_table: "reading = \"published\"", ..scene.clone() };
     let edge = render(&dir, "grazing_floor_policy", &policy, "edge_table");
     let limit = f64::from(shadow_plugin::depth_map::DEFAULT_GRAZING_COS);
     let (mut grazed, mut borderline) = (0u64, 0u64);
@@ -579,7 +580,8 @@ fn wall_lit_at_a_grazing_angle_has_no_false_shadow() {
         quads,
         light: light_toward(add(wall_centre, mul(toward_light, 2.5)), wall_centre, 0.5),
         camera: camera([-0.6, 1.0, 2.0], wall_centre),
-        edge_table: "grazing_cos = 0.0", // the map alone: the default would trace the wall
+        // The published reading's map alone: its default policy would trace the wall.
+        edge_table: "reading = \"published\"\ngrazing_cos = 0.0",
     };
     let (r, m) = run_case(&dir, "grazing_wall", &scene);
     let mut wall = Vec::new();
@@ -648,7 +650,7 @@ fn scene_scaled_by_a_thousandth_and_by_a_thousand() {
     check_transformed("scaled", &[(1e-3, [0.0; 3]), (1e3, [0.0; 3])]);
 }
 
-/// A small box and card on a wide floor that fills the frame: fitting the map only to the
+/// The published reading. A small box and card on a wide floor that fills the frame: fitting the map only to the
 /// receivers something may shadow (`fit_shadowed`, the default) puts its pixels on the
 /// shadows, while the floor far from them is answered exactly (its shafts are clear) by the
 /// traced fallback.
@@ -662,11 +664,12 @@ fn map_fitted_to_the_shadowed_receivers_is_finer_and_exact_elsewhere() {
         quads,
         light: light_toward([0.5, 2.0, 0.8], [0.0, 0.0, 0.0], 0.8),
         camera: camera([0.0, 2.6, 3.2], [0.0, 0.0, -0.3]),
-        edge_table: "",
+        edge_table: "reading = \"published\"",
     };
     let (r, m_fitted) = run_case(&dir, "fitted", &fitted);
     // The whole lit frame fitted: a code-only switch (the scene file cannot turn it off).
-    let mut all_lit = EdgeTableParams::default();
+    let mut all_lit =
+        EdgeTableParams { reading: shadow_plugin::Reading::Published, ..EdgeTableParams::default() };
     all_lit.depth_map.fit_shadowed = false;
     let all_lit = Arc::new(all_lit);
     let edge = Vis(render_visibility_with(

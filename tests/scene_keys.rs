@@ -5,7 +5,8 @@
 use penumbra::config::ShadowsConfig;
 use penumbra::methods::METHODS;
 use renderer::{SceneError, TracedParams, parse_method};
-use shadow_plugin::{Blend, DepthMarchParams, EdgeTableParams, Heightfield, PcssParams};
+use shadow_plugin::edge_table::PUBLISHED_ONLY;
+use shadow_plugin::{Blend, DepthMarchParams, EdgeTableParams, Heightfield, PcssParams, Reading};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -51,6 +52,16 @@ fn the_key_reference_lists_every_key_with_its_default() {
         let doc = docs.get(&section).unwrap_or_else(|| panic!("docs/scene-keys.md has no section {section}"));
         let mut expected: BTreeMap<String, String> =
             (m.keys)().into_iter().map(|(k, v)| (k, v.to_string())).collect();
+        if m.name == "edge_table" {
+            // The published reading's keys (inapplicable to the default, exact one) are
+            // documented with their values under `reading = "published"`.
+            let published = EdgeTableParams { reading: Reading::Published, ..EdgeTableParams::default() };
+            for (k, v) in toml::Table::try_from(published).unwrap() {
+                if PUBLISHED_ONLY.contains(&k.as_str()) {
+                    expected.insert(k, v.to_string());
+                }
+            }
+        }
         for k in m.choice_keys {
             let documented_default = doc.get(*k).unwrap_or_else(|| panic!("{section}.{k} undocumented"));
             expected.insert(k.to_string(), documented_default.clone());
@@ -119,9 +130,19 @@ fn bad_values_are_named_even_in_the_shared_depth_map_keys() {
 fn a_key_that_does_not_apply_to_the_reading_is_an_error() {
     for h in ["shells", "solid"] {
         for t in ["edge_table", "depth_march"] {
-            let text = format!("[{t}]\nheightfield = \"{h}\"\nslab_thickness = 3.0");
+            let reading = if t == "edge_table" { "reading = \"published\"\n" } else { "" };
+            let text = format!("[{t}]\n{reading}heightfield = \"{h}\"\nslab_thickness = 3.0");
             assert_eq!(error_key(&text), format!("shadows.{t}.slab_thickness"));
         }
+    }
+    // The exact reading (the default) reads none of the published reading's keys.
+    for k in PUBLISHED_ONLY {
+        let text = format!(
+            "[edge_table]\n{k} = {}",
+            if *k == "heightfield" || *k == "blend" { "\"nearest\"" } else { "1.0" }
+        );
+        let text = if *k == "heightfield" { text.replace("nearest", "plates") } else { text };
+        assert_eq!(error_key(&text), format!("shadows.edge_table.{k}"), "{text}");
     }
     // The paper preset reads shells: its slab key is inapplicable unless the reading changes.
     assert_eq!(

@@ -115,9 +115,10 @@ pub fn covers_light(p: Vec3, origin: Vec3, n_geom: Vec3, light: &RectLight) -> b
 /// The shaft from one shading point to a rectangular light (see the module docs).
 #[derive(Debug, Clone, Copy)]
 pub struct Shaft {
-    /// Four sides (the origin with each light edge), the light's plane and the cut above the
-    /// tangent plane.
-    faces: [Face; 6],
+    /// Four sides (the origin with each light edge), the light's plane, the cut above the
+    /// tangent plane, and two optional depth clips ([`Shaft::clip_depth`]; inactive: never
+    /// outside).
+    faces: [Face; 8],
     /// The hull's vertices (the origin and the light's corners): a superset of the cut shaft,
     /// for the triangle-plane axis.
     vertices: [Vec3A; 5],
@@ -190,7 +191,10 @@ impl Shaft {
         let apex_a = Vec3A::from(apex);
         let hull = [apex_a, corners[0].into(), corners[1].into(), corners[2].into(), corners[3].into()];
         let slack = 3.0 * e_light + gamma(16) * reach + gamma(32) * scene_bound.max(apex.abs().max_element());
-        let mut faces = [Face { normal: Vec3A::ZERO, anchor: Vec3A::ZERO, offset: 0.0, slack: 0.0 }; 6];
+        // Unused faces (the depth clips until set) have a zero normal and an infinite offset:
+        // nothing is outside them.
+        let mut faces =
+            [Face { normal: Vec3A::ZERO, anchor: Vec3A::ZERO, offset: f32::INFINITY, slack: 0.0 }; 8];
         // Orientation: the centre of the hull is inside every side face.
         let centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
         let inner = Vec3A::from(0.2 * apex + 0.8 * centre);
@@ -229,6 +233,23 @@ impl Shaft {
         let n = Vec3A::from(n_geom);
         faces[5] = Face { normal: -n, anchor: p.into(), offset: -(h_o * (1.0 - gamma(8))), slack: 0.0 };
         Some(Shaft { faces, vertices: hull, slack })
+    }
+
+    /// The part of the shaft between two planes parallel to the light's: points `x` with
+    /// `axis . (x - origin)` (the depth along the light's unit normal `axis`, from its centre
+    /// `origin`) in `[lo, hi]`, widened by `slack` plus the rounding of each evaluation.
+    /// Proving this part clear proves clear the part of every covered ray inside that depth
+    /// range; the rest of each ray is another test's business. `lo = -inf` or `hi = inf`
+    /// leave that side open.
+    pub fn clip_depth(mut self, axis: Vec3, origin: Vec3, lo: f32, hi: f32, slack: f32) -> Shaft {
+        let (axis, origin) = (Vec3A::from(axis), Vec3A::from(origin));
+        if hi.is_finite() {
+            self.faces[6] = Face { normal: axis, anchor: origin, offset: hi, slack };
+        }
+        if lo.is_finite() {
+            self.faces[7] = Face { normal: -axis, anchor: origin, offset: -lo, slack };
+        }
+        self
     }
 
     /// Whether the box `[min, max]` lies wholly outside one face.

@@ -14,6 +14,6 @@ pub mod samples;
 
 pub use depth_map::{DepthMap, DepthMapParams, LightFrame};
 pub use depth_march::{DepthMarch, DepthMarchParams};
-pub use edge_table::{Blend, EdgeTable, EdgeTableParams, Mask, Preset};
+pub use edge_table::{Blend, EdgeTable, EdgeTableParams, Mask, Preset, Reading};
 pub use heightfield::Heightfield;
 pub use pcss::{Pcss, PcssParams};

@@ -2,7 +2,7 @@
 //! order that `--max-run-seconds` skips by ([`cost_order`], [`no_costlier`]).
 
 use renderer::{ShadowMethod, TracedParams, Unshadowed};
-use shadow_plugin::{Blend, DepthMarchParams, EdgeTableParams, PcssParams};
+use shadow_plugin::{Blend, DepthMarchParams, EdgeTableParams, PcssParams, Reading};
 use std::sync::Arc;
 
 /// The `edge_table` parameters that only make a run costlier as they grow: (depth map,
@@ -56,11 +56,21 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
     // bits as `traced N=1024`, so the cost of culling's absence is read off side by side).
     out.push(setting(format!("{PLAIN_TRACED} N={n}"), TracedParams::plain(n), n));
     out.push(setting(format!("depth_march 256 N={n}"), DepthMarchParams::default(), n));
+    // The exact reading (the default) over sample counts: its error is sampling noise like
+    // traced's, so its own curve meets traced's; the default row is the top count.
+    let counts: &[u32] = if quick { &[16] } else { &[16, 64, 256] };
+    for &m in counts {
+        out.push(Setting {
+            is_edge_table_default: false,
+            ..edge_table(format!("edge_table exact N={m}"), EdgeTableParams::default(), m)
+        });
+    }
+    out.push(edge_table(format!("edge_table exact N={n}"), EdgeTableParams::default(), n));
+    // The published (approximate) reading: its previous default's grid, and in the full
+    // sweep a finer map and grids, nearest and trilinear.
+    let published = EdgeTableParams { reading: Reading::Published, ..EdgeTableParams::default() };
     let maps: &[u32] = if quick { &[256] } else { &[256, 512] };
-    // The default's grid, and in the full sweep the previous default's and a finer one
-    // (each once, whatever the default: a repeated setting would repeat a row's label).
-    let default_grid = EdgeTableParams::default().grid;
-    let mut grids = vec![default_grid];
+    let mut grids = vec![published.grid];
     if !quick {
         for g in [[4, 4, 4], [8, 8, 4]] {
             if !grids.contains(&g) {
@@ -72,19 +82,12 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
     for &map in maps {
         for &grid in &grids {
             for (blend, blend_name) in [(Blend::Nearest, "nearest"), (Blend::Trilinear, "trilinear")] {
-                let mut p = EdgeTableParams { grid, blend, ..EdgeTableParams::default() };
+                let mut p = EdgeTableParams { grid, blend, ..published };
                 p.depth_map.resolution = map;
-                let label = format!("edge_table {map} {} {blend_name} N={n}", grid_name(grid));
+                let label = format!("edge_table published {map} {} {blend_name} N={n}", grid_name(grid));
                 out.push(edge_table(label, p, n));
             }
         }
-    }
-    // Sample counts at the default parameters.
-    let counts: &[u32] = if quick { &[16] } else { &[64, 256] };
-    for &m in counts {
-        let label = format!("edge_table 256 {} nearest N={m}", grid_name(default_grid));
-        let other_count = edge_table(label, EdgeTableParams::default(), m);
-        out.push(Setting { is_edge_table_default: false, ..other_count });
     }
     let taps: &[u32] = if quick { &[64] } else { &[64, 256, 1024] };
     for &t in taps {
@@ -94,9 +97,11 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
 }
 
 fn cost_order(p: &EdgeTableParams, samples: u32) -> CostOrder {
-    let blend = match p.blend {
-        Blend::Nearest => 0,
-        Blend::Trilinear => 1,
+    // The exact reading has no blend; it sorts before the published one's nearest.
+    let blend = match (p.reading, p.blend) {
+        (Reading::Exact, _) => 0,
+        (Reading::Published, Blend::Nearest) => 1,
+        (Reading::Published, Blend::Trilinear) => 2,
     };
     (p.depth_map.resolution, p.grid, blend, samples)
 }
@@ -134,7 +139,8 @@ mod tests {
     #[test]
     fn costlier_edge_table_settings_are_the_ones_skipped() {
         let et = |map: u32, grid: [u32; 3], blend: Blend, samples: u32| {
-            let mut p = EdgeTableParams { grid, blend, ..EdgeTableParams::default() };
+            let mut p =
+                EdgeTableParams { grid, blend, reading: Reading::Published, ..EdgeTableParams::default() };
             p.depth_map.resolution = map;
             edge_table(String::new(), p, samples).cost.unwrap()
         };

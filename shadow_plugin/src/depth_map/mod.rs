@@ -8,6 +8,7 @@
 //! ([`DepthMap::build`]), `fit.rs` fits its frustum to the receivers, `pyramid.rs` is the
 //! min-depth pyramid behind region shrinking and block culling.
 
+mod bounds;
 mod build;
 mod fit;
 mod pyramid;
@@ -15,6 +16,7 @@ mod pyramid;
 mod tests;
 
 use crate::march::{floor_height, region_reach};
+pub use bounds::DepthBounds;
 use glam::{Vec2, Vec3};
 use pyramid::MinPyramid;
 use renderer::{KeyError, RectLight};

@@ -1,68 +1,79 @@
 //! `edge_table`: soft shadows by ray tracing a depth map with precomputed edge tables
 //! (Egan & Neulander, "Ray Tracing Depth Maps Using Precomputed Edge Tables", SIGGRAPH 2004
-//! sketch), with trilinear blending across masks.
+//! sketch), read exactly (the default) or as published.
 //!
 //! Because the depth map's centre of projection lies on the (planar) light and its axis is
 //! the light's normal, the normalised height at which a shadow ray crosses a pixel-frustum
 //! side depends only on the side's position relative to P's pixel, P's offset inside its
 //! pixel, P's depth and the light sample, not on P's absolute pixel (the shear invariance).
 //! So a *mask* built for one (sub-pixel offset, depth, light-sample set) serves every pixel:
-//! for each pixel of its filter region it stores the crossings of its N rays into that
-//! pixel, sorted by height, with cumulative bitmasks (bit r cleared once ray r has entered
-//! at or below that height). A query then costs one binary search and one N-bit AND per
-//! pixel of the region instead of N separate marches.
+//! for each pixel of its filter region it stores the crossings of its N rays into and out of
+//! that pixel, sorted by height, with cumulative bitmasks (bit r cleared once ray r has
+//! crossed at or below that height). A query then costs one binary search and one N-bit AND
+//! per pixel of the region instead of N separate marches.
 //!
-//! The per-pixel table is the union of the pixel's (one or two) in-edges: under the
-//! solid-heightfield reading, "AND every wall and floor" reduces exactly to "AND over pixels
-//! of Below(floor height)" (technical note, section 5.4), so one search per pixel suffices.
+//! Two readings ([`Reading`]):
+//!
+//! - **exact** (`exact.rs`, `mask/classify.rs`): the tables are read against conservative
+//!   depth bounds of every triangle (`depth_map/bounds.rs`), which classify each ray clear,
+//!   blocked or undecided for every point the mask stands for; shafts through the BVH prove
+//!   the parts of the rays next to the point and next to the light; the undecided rays (or
+//!   the part of them a shaft could not prove) are traced through the BVH with the
+//!   renderer's one origin rule. The answer is exactly that of tracing every ray of the
+//!   mask's sample set: no bias, and the error is sampling noise, as for `traced`.
+//! - **published** (`mask/query.rs`): the sketch's reading of a centre-ray depth map as a
+//!   heightfield (`heightfield`), with bias, slabs, a grazing policy and optional trilinear
+//!   blending: approximate, kept to compare with the published method.
 //!
 //! | key (`[shadows.edge_table]`) | type | default | meaning |
 //! |---|---|---|---|
 //! | `preset` | "paper" / "balanced" / "fine" | "balanced" | the starting point the other keys override ([`Preset`]) |
+//! | `reading` | "exact" / "published" | "exact" | see above |
 //! | `depth_map` | int | 256 | depth-map pixels per side |
 //! | `grid` | [int; 3] | [2, 2, 8] | masks over (sub-pixel x, sub-pixel y, depth) |
-//! | `blend` | "nearest" / "trilinear" | "nearest" | take the nearest mask, or blend the 8 (4 with one depth level) nearest masks' visibilities |
-//! | `heightfield` | "plates" / "shells" / "solid" | "plates" | how the depth map is read ([`Heightfield`]) |
-//! | `slab_thickness` | float | 2.0 | `plates` only: each floor is a slab this many pixel footprints thick |
-//! | `slope_bias` | float | 1.0 | slope-scaled depth bias, in pixels |
-//! | `normal_offset` | float | 0.5 | lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
-//! | `grazing_cos` | float | 0.5 | receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
+//! | `blend` | "nearest" / "trilinear" | "nearest" | published: take the nearest mask, or blend the 8 (4 with one depth level) nearest masks' visibilities |
+//! | `heightfield` | "plates" / "shells" / "solid" | "plates" | published: how the depth map is read ([`Heightfield`]) |
+//! | `slab_thickness` | float | 2.0 | published, `plates` only: each floor is a slab this many pixel footprints thick |
+//! | `slope_bias` | float | 1.0 | published: slope-scaled depth bias, in pixels |
+//! | `normal_offset` | float | 0.5 | published: lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
+//! | `grazing_cos` | float | 0.5 | published: receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
 //!
 //! The same list, held to [`EdgeTableParams`] by a test: `docs/scene-keys.md`. Code-only
 //! (the bench and the accuracy example switch them; presets set them): `mirrored` (build
 //! only the masks at sub-pixel offsets up to 1/2 and read the others as mirror images; off in
-//! `paper`), and the depth map's `closed_volumes`, `hidden_layer` and `fit_shadowed`
-//! ([`DepthMapParams`](crate::DepthMapParams)).
+//! `paper`; the exact reading never mirrors), and the depth map's `closed_volumes`,
+//! `hidden_layer` and `fit_shadowed` ([`DepthMapParams`](crate::DepthMapParams)).
 //!
 //! `samples` (`[shadows]`) is the number of rays per mask (at most 4096).
 //!
 //! ```toml
 //! [shadows]
 //! method = "edge_table"
-//! samples = 1024
+//! samples = 256
 //! [shadows.edge_table]
 //! depth_map = 256
 //! grid = [2, 2, 8]
-//! blend = "nearest"
-//! heightfield = "plates"
 //! ```
 //!
 //! The rooms: this file is the plugin ([`EdgeTable`]: preparing a light's map and masks,
 //! answering queries, the counters); `params.rs` holds [`EdgeTableParams`] and its presets,
 //! `grid.rs` the grid of masks (depth levels, mirrored masks, which masks a point reads),
-//! `mask/` one mask ([`Mask`]: `build.rs` builds it, `query.rs` reads it, one function per
-//! [`Heightfield`] reading).
+//! `exact.rs` the exact reading's per-point logic (fields, shafts, traced segments),
+//! `mask/` one mask ([`Mask`]: `build.rs` builds it, `classify.rs` reads it exactly,
+//! `query.rs` as published, one function per [`Heightfield`] reading).
 
+mod exact;
 mod grid;
 mod mask;
 mod params;
 
 pub use crate::heightfield::Heightfield;
+pub use exact::{ExactMap, ExactMask, ExactStats};
 pub use mask::{Mask, QueryStats};
-pub use params::{Blend, EdgeTableParams, GRID_RANGE, MAX_MASKS, Preset};
+pub use params::{Blend, EdgeTableParams, GRID_RANGE, MAX_MASKS, PUBLISHED_ONLY, Preset, Reading};
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
-use crate::depth_map::DepthMap;
+use crate::depth_map::{DepthBounds, DepthMap};
 use crate::fallback::{Located, MapFallback, OnMap};
 use crate::march::stop_height;
 use crate::samples;
@@ -83,13 +94,34 @@ pub struct EdgeTable {
     early_outs: AtomicU64,
     blocks_culled: AtomicU64,
     clipped: AtomicU64,
+    exact_counters: ExactCounters,
 }
 
-struct Prepared {
-    map: DepthMap,
-    /// The masks built (all of the grid, or its mirror-image classes' representatives).
-    masks: Vec<Mask>,
-    grid: MaskGrid,
+/// The exact reading's counters (relaxed, one add per query).
+#[derive(Default)]
+struct ExactCounters {
+    rays_clear: AtomicU64,
+    rays_blocked: AtomicU64,
+    rays_traced: AtomicU64,
+    shafts: AtomicU64,
+    points_shaft_clear: AtomicU64,
+    points_off_map: AtomicU64,
+    rays_near_traced: AtomicU64,
+    rays_far_traced: AtomicU64,
+}
+
+enum Prepared {
+    Published {
+        map: DepthMap,
+        /// The masks built (all of the grid, or its mirror-image classes' representatives).
+        masks: Vec<Mask>,
+        grid: MaskGrid,
+    },
+    Exact {
+        map: Box<ExactMap>,
+        masks: Vec<ExactMask>,
+        grid: MaskGrid,
+    },
 }
 
 /// Share of receivers whose stop height the masks cover (the rest fall back to traced).
@@ -112,6 +144,7 @@ impl EdgeTable {
             early_outs: AtomicU64::new(0),
             blocks_culled: AtomicU64::new(0),
             clipped: AtomicU64::new(0),
+            exact_counters: ExactCounters::default(),
         }
     }
 
@@ -134,6 +167,7 @@ impl EdgeTable {
         let pitch = map.pitch;
         let seed = ctx.seed;
         let light_index = ctx.light_index as u64;
+        let exact = self.params.reading == Reading::Exact;
         // Mask memory grows with grid x samples x filter-region size; a grid the machine
         // cannot hold is refused (an error naming the parameters) rather than swapped or
         // killed. Checked as masks are built: once the total passes the budget the rest are
@@ -146,7 +180,11 @@ impl EdgeTable {
                     return None;
                 }
                 let [ax, ay, k] = grid::coordinates(m, self.params.grid);
-                let offset = Vec2::new((ax as f32 + 0.5) / gx as f32, (ay as f32 + 0.5) / gy as f32);
+                // The exact reading's masks sit at their cell's lower corner (a point's ray is
+                // the mask's shifted by less than one cell along +x and +y); the published
+                // reading's at the cell's centre.
+                let centre = if exact { 0.0 } else { 0.5 };
+                let offset = Vec2::new((ax as f32 + centre) / gx as f32, (ay as f32 + centre) / gy as f32);
                 let mut s = vec![Vec2::ZERO; n];
                 samples::stratified(
                     &mut s,
@@ -198,15 +236,10 @@ fn mask_height_cap(map: &DepthMap, visible: &[VisiblePoint]) -> f32 {
     }
 }
 
-impl LightShadowing for EdgeTable {
-    fn name(&self) -> &'static str {
-        Self::NAME
-    }
-
-    /// The depth map; the depth levels; how high the masks march; the masks, within the
-    /// memory budget.
-    fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
-        self.fallback.prepare(ctx)?;
+impl EdgeTable {
+    /// The published reading's prepare: the depth map, the depth levels, how high the masks
+    /// march, the masks within the memory budget.
+    fn prepare_published(&self, ctx: &PrepareContext) -> Result<Prepared, ShadowError> {
         let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map);
         let (levels, z_hi) = grid::depth_levels(&map, ctx.visible, self.params.grid[2]);
         // Each mask marches far enough for the deepest point it serves, and no further than
@@ -221,13 +254,42 @@ impl LightShadowing for EdgeTable {
         let layout = Layout::new(self.params.grid, self.params.mirrored);
         let masks = self.build_masks(ctx, &map, &layout.built, &per_level, ctx.mask_budget_bytes)?;
         let grid = MaskGrid { dims: self.params.grid, blend: self.params.blend, levels, cells: layout.cells };
-        self.state = Some(Prepared { map, masks, grid });
-        Ok(())
+        Ok(Prepared::Published { map, masks, grid })
     }
 
-    fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
-        let st = self.state.as_ref().expect("prepare() runs before visibility()");
-        let map = &st.map;
+    /// The exact reading's prepare: the conservative bounds, the depth levels, how high the
+    /// masks march (what the receivers' regions need, up to its [`MASK_HEIGHT_QUANTILE`]), the
+    /// masks at their cells' lower corners, every one built (no mirroring).
+    fn prepare_exact(&self, ctx: &PrepareContext) -> Result<Prepared, ShadowError> {
+        let (bounds, near) =
+            DepthBounds::build_for_light(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map);
+        let map = Box::new(ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() });
+        let (levels, _) = grid::depth_levels(&map.near, ctx.visible, self.params.grid[2]);
+        let w_cap = map.stop_reach_quantile(ctx.visible, MASK_HEIGHT_QUANTILE);
+        let per_level: Vec<(f32, f32)> = levels
+            .iter()
+            .map(|&z| {
+                let s = z * w_cap;
+                (z, if s.is_finite() { s / (1.0 + s) } else { 1.0 })
+            })
+            .collect();
+        let layout = Layout::new(self.params.grid, false);
+        let masks = self.build_masks(ctx, &map.near, &layout.built, &per_level, ctx.mask_budget_bytes)?;
+        let half = map.near.frame.half_size;
+        let masks = masks.into_iter().map(|m| ExactMask::new(m, half)).collect();
+        let grid = MaskGrid { dims: self.params.grid, blend: Blend::Nearest, levels, cells: layout.cells };
+        Ok(Prepared::Exact { map, masks, grid })
+    }
+
+    /// The published reading's answer: the masks read against the centre-ray depth map.
+    fn visibility_published(
+        &self,
+        scene: &Scene,
+        q: &ShadowQuery,
+        map: &DepthMap,
+        masks: &[Mask],
+        grid: &MaskGrid,
+    ) -> f32 {
         let frame = &map.frame;
         // Grazed points and points outside the map: traced rays answer (counted).
         let OnMap { p, mp, z_stop, clipped } = match self.fallback.locate(map, scene, q) {
@@ -246,13 +308,13 @@ impl LightShadowing for EdgeTable {
         let h_stop = stop_height(z_stop, p.z);
         let [i, j] = mp.pixel;
         let mut chosen = [(0usize, [0i32; 2], 0.0f32); 8];
-        let count = st.grid.select(mp.offset, p.z, &mut chosen);
+        let count = grid.select(mp.offset, p.z, &mut chosen);
         let mut visible = [0u64; MAX_WORDS];
         let mut above = [0u64; MAX_WORDS];
         let (mut v, mut lookups, mut early_outs, mut culled) = (0.0f32, 0u64, 0u64, 0u64);
         for &(g, shift, w) in &chosen[..count] {
-            let (m, mirror) = st.grid.mask(g);
-            let mask = &st.masks[m as usize];
+            let (m, mirror) = grid.mask(g);
+            let mask = &masks[m as usize];
             if h_stop > mask.h_max {
                 return self.fallback.trace(scene, q);
             }
@@ -292,31 +354,150 @@ impl LightShadowing for EdgeTable {
         v.clamp(0.0, 1.0)
     }
 
+    /// The exact reading's answer: see `exact.rs`. With `traced_only`, every counted ray of
+    /// the same sample set is traced (the reference the classification must equal).
+    fn visibility_exact(&self, scene: &Scene, q: &ShadowQuery, traced_only: bool) -> f32 {
+        let Some(Prepared::Exact { map, masks, grid }) = &self.state else {
+            panic!("prepare() with the exact reading runs before visibility()");
+        };
+        let c = &self.exact_counters;
+        if !traced_only
+            && let Some(shaft) = renderer::Shaft::new(&map.light, q.p, q.p_error, q.n_geom, map.scene_bound)
+        {
+            c.shafts.fetch_add(1, Ordering::Relaxed);
+            let origin = renderer::ray_origin::offset_origin(q.p, q.p_error, q.n_geom, q.n_geom);
+            if scene.shaft_clear(&shaft) && renderer::shaft::covers_light(q.p, origin, q.n_geom, &map.light) {
+                c.points_shaft_clear.fetch_add(1, Ordering::Relaxed);
+                return 1.0;
+            }
+        }
+        let p = map.near.frame.light_from_world(q.p);
+        let located = map.near.locate(p).filter(|mp| map.near.contains(mp.pixel, mp.pixel));
+        let (offset, z) = match located {
+            Some(mp) => (mp.offset, p.z),
+            None => {
+                c.points_off_map.fetch_add(1, Ordering::Relaxed);
+                (Vec2::ZERO, p.z.max(0.0))
+            }
+        };
+        let mut chosen = [(0usize, [0i32; 2], 0.0f32); 8];
+        grid.select(offset, z, &mut chosen);
+        let (m, _) = grid.mask(chosen[0].0);
+        let mut stats = ExactStats::default();
+        let v = map.visibility(scene, q, &masks[m as usize], traced_only, &mut stats);
+        if !traced_only {
+            c.rays_clear.fetch_add(stats.rays_clear, Ordering::Relaxed);
+            c.rays_blocked.fetch_add(stats.rays_blocked, Ordering::Relaxed);
+            c.rays_traced.fetch_add(stats.rays_traced, Ordering::Relaxed);
+            c.shafts.fetch_add(stats.shafts, Ordering::Relaxed);
+            c.rays_near_traced.fetch_add(stats.rays_near_traced, Ordering::Relaxed);
+            c.rays_far_traced.fetch_add(stats.rays_far_traced, Ordering::Relaxed);
+            self.lookups.fetch_add(stats.lookups, Ordering::Relaxed);
+            if stats.blocks_culled > 0 {
+                self.blocks_culled.fetch_add(stats.blocks_culled, Ordering::Relaxed);
+            }
+        }
+        v
+    }
+
+    /// Every counted ray of the exact reading's sample set for `q` traced through the BVH,
+    /// none classified: what [`LightShadowing::visibility`] must equal bit for bit (tests).
+    #[doc(hidden)]
+    pub fn visibility_all_traced(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
+        self.visibility_exact(scene, q, true)
+    }
+
+    /// The exact reading's classification of `q`'s rays, for the differential tests: the
+    /// mask's samples (light coordinates) with each one's verdict (Some(true) clear,
+    /// Some(false) blocked, None undecided), before any ray is traced. None for the
+    /// published reading, off the map, or a point whose whole-light shaft is clear.
+    #[doc(hidden)]
+    pub fn classify_rays(&self, scene: &Scene, q: &ShadowQuery) -> Option<Vec<([f32; 2], Option<bool>)>> {
+        let Some(Prepared::Exact { map, masks, grid }) = &self.state else { return None };
+        let p = map.near.frame.light_from_world(q.p);
+        let mp = map.near.locate(p).filter(|mp| map.near.contains(mp.pixel, mp.pixel))?;
+        let mut chosen = [(0usize, [0i32; 2], 0.0f32); 8];
+        grid.select(mp.offset, p.z, &mut chosen);
+        let m = &masks[grid.mask(chosen[0].0).0 as usize];
+        Some(map.verdicts(scene, q, m))
+    }
+}
+
+impl LightShadowing for EdgeTable {
+    fn name(&self) -> &'static str {
+        Self::NAME
+    }
+
+    fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
+        self.state = None;
+        self.state = Some(match self.params.reading {
+            Reading::Exact => self.prepare_exact(ctx)?,
+            Reading::Published => {
+                self.fallback.prepare(ctx)?;
+                self.prepare_published(ctx)?
+            }
+        });
+        Ok(())
+    }
+
+    fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
+        match self.state.as_ref().expect("prepare() runs before visibility()") {
+            Prepared::Exact { .. } => self.visibility_exact(scene, q, false),
+            Prepared::Published { map, masks, grid } => self.visibility_published(scene, q, map, masks, grid),
+        }
+    }
+
     fn memory_bytes(&self) -> u64 {
-        self.state.as_ref().map_or(0, |st| st.masks.iter().map(Mask::bytes).sum::<u64>() + st.map.bytes())
+        match &self.state {
+            None => 0,
+            Some(Prepared::Published { map, masks, .. }) => {
+                masks.iter().map(Mask::bytes).sum::<u64>() + map.bytes()
+            }
+            Some(Prepared::Exact { map, masks, .. }) => {
+                masks.iter().map(|m| m.mask.bytes()).sum::<u64>() + map.bounds.bytes() + map.near.bytes()
+            }
+        }
     }
 
     fn counters(&self) -> Vec<(&'static str, u64)> {
-        let (masks, bytes, crossings, map_bytes) = match &self.state {
-            Some(st) => (
-                st.masks.len() as u64,
-                st.masks.iter().map(Mask::bytes).sum::<u64>(),
-                st.masks.iter().map(|m| m.crossings() as u64).sum::<u64>(),
-                st.map.bytes(),
-            ),
-            None => (0, 0, 0, 0),
+        let masks: Vec<&Mask> = match &self.state {
+            Some(Prepared::Published { masks, .. }) => masks.iter().collect(),
+            Some(Prepared::Exact { masks, .. }) => masks.iter().map(|m| &m.mask).collect(),
+            None => Vec::new(),
+        };
+        let map_bytes = match &self.state {
+            Some(Prepared::Published { map, .. }) => map.bytes(),
+            Some(Prepared::Exact { map, .. }) => map.bounds.bytes() + map.near.bytes(),
+            None => 0,
         };
         let mut c = vec![
-            ("masks_built", masks),
-            ("mask_bytes", bytes),
-            ("mask_crossings", crossings),
+            ("masks_built", masks.len() as u64),
+            ("mask_bytes", masks.iter().map(|m| m.bytes()).sum::<u64>()),
+            ("mask_crossings", masks.iter().map(|m| m.crossings() as u64).sum::<u64>()),
             ("depth_map_bytes", map_bytes),
             ("edge_lookups", self.lookups.load(Ordering::Relaxed)),
-            ("early_outs", self.early_outs.load(Ordering::Relaxed)),
             ("blocks_culled", self.blocks_culled.load(Ordering::Relaxed)),
-            ("regions_clipped", self.clipped.load(Ordering::Relaxed)),
         ];
-        c.extend(self.fallback.counters());
+        if let Some(Prepared::Exact { map, .. }) = &self.state {
+            let e = &self.exact_counters;
+            c.extend([
+                ("rays_clear", e.rays_clear.load(Ordering::Relaxed)),
+                ("rays_blocked", e.rays_blocked.load(Ordering::Relaxed)),
+                ("shadow_rays", e.rays_traced.load(Ordering::Relaxed)),
+                ("shafts_tested", e.shafts.load(Ordering::Relaxed)),
+                ("shadow_rays_near_field", e.rays_near_traced.load(Ordering::Relaxed)),
+                ("shadow_rays_far_field", e.rays_far_traced.load(Ordering::Relaxed)),
+                ("points_shaft_clear", e.points_shaft_clear.load(Ordering::Relaxed)),
+                ("points_off_map", e.points_off_map.load(Ordering::Relaxed)),
+                ("open_edges", map.bounds.open_edges),
+            ]);
+        } else {
+            c.extend([
+                ("early_outs", self.early_outs.load(Ordering::Relaxed)),
+                ("regions_clipped", self.clipped.load(Ordering::Relaxed)),
+            ]);
+            c.extend(self.fallback.counters());
+        }
         c
     }
 }

@@ -19,6 +19,19 @@ pub enum Blend {
     Trilinear,
 }
 
+/// How the masks are read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Reading {
+    /// Each ray classified clear, blocked or undecided against conservative depth bounds; the
+    /// undecided ones traced through the BVH. The visibility is exactly that of tracing every
+    /// ray of the mask's sample set (`edge_table/exact.rs`).
+    Exact,
+    /// The sketch's reading: the centre-ray depth map as a heightfield (`heightfield`), with
+    /// its bias, slab and grazing settings, nearest or trilinear (`blend`). Approximate.
+    Published,
+}
+
 /// Parameters of the edge-table method: `[shadows.edge_table]` (see the module doc for the
 /// keys); `mirrored` is code-only, set by the preset.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -26,6 +39,8 @@ pub enum Blend {
 pub struct EdgeTableParams {
     #[serde(flatten)]
     pub depth_map: DepthMapParams,
+    /// Exact (the default) or the published approximate reading.
+    pub reading: Reading,
     /// Masks over (sub-pixel x, sub-pixel y, depth). Sub-pixel samples are cell-centred,
     /// (a + 1/2) / n; depth levels are at the (k + 1/2) / n quantiles of the depths of the
     /// receivers the light reaches.
@@ -49,6 +64,7 @@ impl EdgeTableParams {
     pub const fn paper() -> Self {
         Self {
             depth_map: DepthMapParams::new(256),
+            reading: Reading::Published,
             grid: [4, 4, 1],
             blend: Blend::Nearest,
             heightfield: Heightfield::Shells,
@@ -65,6 +81,7 @@ impl EdgeTableParams {
     pub const fn balanced() -> Self {
         Self {
             depth_map: DepthMapParams::new(256),
+            reading: Reading::Exact,
             grid: [2, 2, 8],
             blend: Blend::Nearest,
             heightfield: Heightfield::Plates,
@@ -75,6 +92,7 @@ impl EdgeTableParams {
     pub const fn fine() -> Self {
         Self {
             depth_map: DepthMapParams::new(512),
+            reading: Reading::Published,
             grid: [8, 8, 4],
             blend: Blend::Trilinear,
             heightfield: Heightfield::Plates,
@@ -100,6 +118,11 @@ pub enum Preset {
     /// [`EdgeTableParams::fine`].
     Fine,
 }
+
+/// Keys only the published reading reads: the exact one has no bias, slab, grazing policy or
+/// blending (one mask per point, so its answer is that mask's sample set traced).
+pub const PUBLISHED_ONLY: &[&str] =
+    &["heightfield", "blend", "slab_thickness", "slope_bias", "normal_offset", "grazing_cos"];
 
 /// Most masks a grid may hold, and the range of each grid dimension.
 pub const MAX_MASKS: u32 = 4096;
@@ -141,6 +164,9 @@ impl MethodParams for EdgeTableParams {
     }
 
     fn inapplicable(&self, key: &str) -> Option<String> {
+        if self.reading == Reading::Exact && PUBLISHED_ONLY.contains(&key) {
+            return Some("applies only to reading = \"published\"".into());
+        }
         inapplicable_to_reading(key, self.heightfield)
     }
 

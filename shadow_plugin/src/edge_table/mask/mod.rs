@@ -4,7 +4,10 @@
 //! reading); this file holds the layout both share.
 
 mod build;
+mod classify;
 mod query;
+
+pub use classify::ExactQuery;
 
 use glam::Vec2;
 

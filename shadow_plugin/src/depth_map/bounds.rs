@@ -1,0 +1,536 @@
+//! Conservative depth bounds over a light-space map: what the exact edge-table reading
+//! classifies rays against (see `edge_table/exact.rs`).
+//!
+//! Per map pixel, by conservative rasterization of every triangle (alpha-tested ones too:
+//! they may block) clipped to the pixel's frustum:
+//!
+//! - `near`: no geometry anywhere in the pixel's frustum is nearer the light. A ray that stays
+//!   nearer than it while inside that frustum meets nothing there.
+//! - `far`, where the pixel is *covered*: the deepest point of the nearest opaque sheet in it
+//!   (the first connected run of the opaque triangles' depth ranges there). A pixel
+//!   is covered when some opaque triangle overlaps it and no *open* edge of opaque geometry
+//!   projects into it. An edge is open unless exactly two opaque triangles share it and lie
+//!   on opposite sides of the plane through it and the light's centre (no boundary, no
+//!   silhouette, no fold). Then every connected piece of opaque surface overlapping the pixel
+//!   spans its whole frustum as one continuous sheet, so a ray that is deeper than `far` at
+//!   one point of the frustum and nearer than `near` at another crosses the nearest sheet:
+//!   blocked. (The nearest sheet's triangles there form one connected surface, so their depth
+//!   ranges form one run; other sheets, such as the floor under a card, may lie deeper.)
+//!   Alpha-tested triangles never cover.
+//!
+//! Both bounds are then taken over 2 x 2 blocks of pixels ([`DepthBounds::near2`],
+//! [`DepthBounds::far2`]): a mask's reference ray and a point's own ray differ by a shift of
+//! less than one pixel along +x and +y (the mask sits at its sub-pixel cell's lower corner),
+//! so where the reference ray is in pixel (i, j), the point's ray is in the block at (i, j).
+//!
+//! Margins: each pixel's frustum is widened by `PIXEL_MARGIN` pixels plus the world-space
+//! slack (`slack`, from the scene's coordinate bound) seen at the casters' nearest depth (one
+//! widening for every triangle, so that their depth ranges in a pixel compare), and
+//! depths move outwards by `DEPTH_MARGIN` of themselves plus `slack`: the map's rays start at
+//! the light's centre in exact arithmetic while traced rays start at an offset origin and
+//! stop short of the light, and every projection here rounds.
+
+use super::LightFrame;
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use renderer::Scene;
+use renderer::material::AlphaMode;
+use renderer::ray_origin::gamma;
+
+/// Widening of every pixel's frustum, in pixels.
+pub const PIXEL_MARGIN: f32 = 1e-3;
+/// Relative widening of every depth bound.
+pub const DEPTH_MARGIN: f32 = 1e-5;
+
+/// Conservative bounds of a `res` x `res` map (row-major from `origin`, pitch `pitch`).
+#[derive(Debug, Clone)]
+pub struct DepthBounds {
+    pub resolution: u32,
+    /// Per 2 x 2 block at (i, j) (pixels i..=i+1, j..=j+1): the nearest depth of anything
+    /// in it; 0 where the block reaches outside the map (anything may be there); +inf empty.
+    pub near2: Vec<f32>,
+    /// Per 2 x 2 block: where the first run of geometry from `near2` ends, and where the next
+    /// begins (+inf: none); between them is free space. 0 where the block leaves the map.
+    pub end2: Vec<f32>,
+    pub next2: Vec<f32>,
+    /// Per 2 x 2 block: the nearest depth of its pixels on the map (what the pyramid holds).
+    pub near_on_map: Vec<f32>,
+    /// Per 2 x 2 block: the deepest opaque depth where the whole block is covered, else NaN
+    /// (never compares true).
+    pub far2: Vec<f32>,
+    /// The depth under which the map holds no geometry (nearer parts of triangles are not
+    /// rasterized: rays there are another test's business).
+    pub z_clip: f32,
+    /// Triangles rasterized, open edges found (for the counters).
+    pub triangles: u64,
+    pub open_edges: u64,
+}
+
+/// Per-pixel accumulators of one rasterization pass.
+#[derive(Clone)]
+struct Raster {
+    near: Vec<f32>,
+    /// (pixel, nearest depth, deepest depth, opaque) of every triangle in every pixel.
+    ranges: Vec<(u32, f32, f32, bool)>,
+    /// Bit 0: an opaque triangle overlaps; bit 1: an open edge (or a cut triangle) does.
+    flags: Vec<u8>,
+}
+
+const OPAQUE: u8 = 1;
+const OPEN: u8 = 2;
+
+/// The map's geometry: where its pixels are, and the slack of every test.
+#[derive(Clone, Copy)]
+struct Grid {
+    origin: Vec2,
+    pitch: f32,
+    res: i32,
+    z_clip: f32,
+    slack: f32,
+    /// The widening of every pixel, in pixels.
+    margin: f32,
+}
+
+impl Raster {
+    fn new(n: usize) -> Self {
+        Raster { near: vec![f32::INFINITY; n], ranges: Vec::new(), flags: vec![0; n] }
+    }
+
+    fn merge(mut self, mut other: Raster) -> Raster {
+        self.ranges.append(&mut other.ranges);
+        for k in 0..self.near.len() {
+            self.near[k] = self.near[k].min(other.near[k]);
+            self.flags[k] |= other.flags[k];
+        }
+        self
+    }
+}
+
+/// Clips a convex polygon (light-frame points) to `plane(v) >= 0`, into `out`.
+#[inline]
+fn clip(poly: &[Vec3], plane: impl Fn(Vec3) -> f32, out: &mut Vec<Vec3>) {
+    out.clear();
+    for k in 0..poly.len() {
+        let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
+        let (da, db) = (plane(a), plane(b));
+        if da >= 0.0 {
+            out.push(a);
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            let t = da / (da - db);
+            out.push(a + (b - a) * t);
+        }
+    }
+}
+
+impl Grid {
+    /// Image point (pixel units from the map's corner) of a light-frame point at z > 0.
+    #[inline]
+    fn image(&self, v: Vec3) -> Vec2 {
+        (Vec2::new(v.x, v.y) / v.z - self.origin) / self.pitch
+    }
+
+    /// The pixel box (inclusive, clamped to the map) that points within `m` pixels of the
+    /// image box [lo, hi] fall in; None when it misses the map.
+    #[inline]
+    fn pixel_box(&self, lo: Vec2, hi: Vec2, m: f32) -> Option<([i32; 2], [i32; 2])> {
+        let (lo, hi) = ((lo - m).floor(), (hi + m).floor());
+        if lo.is_nan() || hi.is_nan() {
+            return None;
+        }
+        let n = (self.res - 1) as f32;
+        if hi.x < 0.0 || hi.y < 0.0 || lo.x > n || lo.y > n {
+            return None;
+        }
+        let c = |x: f32| x.clamp(0.0, n) as i32;
+        Some(([c(lo.x), c(lo.y)], [c(hi.x), c(hi.y)]))
+    }
+
+    /// Rasterizes one triangle (light-frame vertices) into `r`: near, and for opaque ones far
+    /// and the opaque flag; a triangle cut by `z_clip` marks its pixels open.
+    fn triangle(&self, v: [Vec3; 3], opaque: bool, r: &mut Raster, a: &mut Vec<Vec3>, b: &mut Vec<Vec3>) {
+        let cut = v.iter().any(|p| p.z < self.z_clip);
+        if v.iter().all(|p| p.z < self.z_clip) || !v.iter().all(|p| p.is_finite()) {
+            return;
+        }
+        clip(&v, |p| p.z - self.z_clip, a);
+        let (mut lo, mut hi) = (Vec2::INFINITY, Vec2::NEG_INFINITY);
+        for p in a.iter() {
+            let g = self.image(*p);
+            (lo, hi) = (lo.min(g), hi.max(g));
+        }
+        // One widening for every triangle: the runs of depth ranges in a pixel compare
+        // triangles clipped to the same frustum.
+        let m = self.margin;
+        let Some((p_lo, p_hi)) = self.pixel_box(lo, hi, m) else { return };
+        let poly: Vec<Vec3> = std::mem::take(a);
+        for j in p_lo[1]..=p_hi[1] {
+            for i in p_lo[0]..=p_hi[0] {
+                // The pixel's frustum, widened by m pixels: x >= u0 z, x <= u1 z (likewise y).
+                let u0 = self.origin.x + (i as f32 - m) * self.pitch;
+                let u1 = self.origin.x + (i as f32 + 1.0 + m) * self.pitch;
+                let w0 = self.origin.y + (j as f32 - m) * self.pitch;
+                let w1 = self.origin.y + (j as f32 + 1.0 + m) * self.pitch;
+                clip(&poly, |p| p.x - u0 * p.z, b);
+                clip(b, |p| u1 * p.z - p.x, a);
+                clip(a, |p| p.y - w0 * p.z, b);
+                clip(b, |p| w1 * p.z - p.y, a);
+                if a.is_empty() {
+                    continue;
+                }
+                let (zmin, zmax) =
+                    a.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), p| (l.min(p.z), h.max(p.z)));
+                let k = (j * self.res + i) as usize;
+                let zmin = zmin * (1.0 - DEPTH_MARGIN) - self.slack;
+                r.near[k] = r.near[k].min(zmin);
+                r.ranges.push((k as u32, zmin, zmax * (1.0 + DEPTH_MARGIN) + self.slack, opaque));
+                if opaque {
+                    r.flags[k] |= OPAQUE;
+                }
+                if cut {
+                    r.flags[k] |= OPEN;
+                }
+            }
+        }
+        *a = poly;
+    }
+
+    /// Marks open every pixel the segment [p, q] (light frame) passes within the margin of.
+    fn open_edge(&self, p: Vec3, q: Vec3, flags: &mut [u8]) {
+        // Only the part at z >= z_clip is in the map (the cut triangles mark the rest).
+        let (mut p, mut q) = (p, q);
+        if p.z < self.z_clip && q.z < self.z_clip {
+            return;
+        }
+        if p.z < self.z_clip {
+            p = p + (q - p) * ((self.z_clip - p.z) / (q.z - p.z));
+        } else if q.z < self.z_clip {
+            q = q + (p - q) * ((self.z_clip - q.z) / (p.z - q.z));
+        }
+        let (gp, gq) = (self.image(p), self.image(q));
+        if !gp.is_finite() || !gq.is_finite() {
+            return;
+        }
+        let m = 2.0 * self.margin;
+        let Some((lo, hi)) = self.pixel_box(gp.min(gq), gp.max(gq), m) else { return };
+        let d = gq - gp;
+        let n = Vec2::new(-d.y, d.x);
+        // A pixel box [i - m, i + 1 + m] meets the segment's line iff its centre's distance
+        // along the normal is within the box's half-extent on it (its bounding box is given).
+        let reach = (0.5 + m) * (n.x.abs() + n.y.abs()) * (1.0 + 1e-4) + 1e-6;
+        for j in lo[1]..=hi[1] {
+            for i in lo[0]..=hi[0] {
+                let c = Vec2::new(i as f32 + 0.5, j as f32 + 0.5);
+                if n.dot(c - gp).abs() <= reach {
+                    flags[(j * self.res + i) as usize] |= OPEN;
+                }
+            }
+        }
+    }
+}
+
+/// Bit pattern of an edge's endpoints, smaller first: shared edges of a mesh have identical
+/// f32 vertices.
+type EdgeKey = [u32; 6];
+
+fn edge_key(a: Vec3, b: Vec3) -> EdgeKey {
+    let (ka, kb) = (a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
+    let (x, y) = if ka <= kb { (ka, kb) } else { (kb, ka) };
+    [x[0], x[1], x[2], y[0], y[1], y[2]]
+}
+
+/// The open edges of the opaque triangles (light-frame vertices): see the module doc.
+fn open_edges(tris: &[[Vec3; 3]]) -> Vec<(Vec3, Vec3)> {
+    let mut edges: Vec<(EdgeKey, u32, u8)> = tris
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(t, v)| {
+            (0..3u8).map(move |e| (edge_key(v[e as usize], v[(e as usize + 1) % 3]), t as u32, e))
+        })
+        .collect();
+    edges.par_sort_unstable();
+    let mut open = Vec::new();
+    let mut k = 0;
+    while k < edges.len() {
+        let mut end = k + 1;
+        while end < edges.len() && edges[end].0 == edges[k].0 {
+            end += 1;
+        }
+        let (t, e) = (edges[k].1 as usize, edges[k].2 as usize);
+        let (a, b) = (tris[t][e], tris[t][(e + 1) % 3]);
+        let interior = end - k == 2 && {
+            // The two third vertices on opposite sides of the plane through the edge and
+            // the light's centre (the frame's origin), each by more than its rounding.
+            let n = a.cross(b);
+            let third = |i: usize| {
+                let (t, e) = (edges[i].1 as usize, edges[i].2 as usize);
+                tris[t][(e + 2) % 3]
+            };
+            let (c1, c2) = (third(k), third(k + 1));
+            let tol = |c: Vec3| gamma(8) * a.length() * b.length() * c.length();
+            let (s1, s2) = (n.dot(c1), n.dot(c2));
+            s1.abs() > tol(c1) && s2.abs() > tol(c2) && (s1 > 0.0) != (s2 > 0.0)
+        };
+        if !interior {
+            open.push((a, b));
+        }
+        k = end;
+    }
+    open
+}
+
+impl DepthBounds {
+    /// Rasterizes every triangle of `scene` into a `res` x `res` map over the light frame
+    /// `frame` (lower image-plane corner `origin`, pixel pitch `pitch`), down to depth
+    /// `z_clip`.
+    pub fn build(
+        scene: &Scene,
+        frame: &LightFrame,
+        origin: Vec2,
+        pitch: f32,
+        res: u32,
+        z_clip: f32,
+        z_casters: f32,
+    ) -> Self {
+        let n = (res * res) as usize;
+        let slack = gamma(64) * (scene.coordinate_bound() + frame.origin.abs().max_element());
+        // The world-space slack seen at the casters' nearest depth, in pixels.
+        let margin = PIXEL_MARGIN + (slack / (z_casters.max(z_clip) * pitch)).min(0.25);
+        let grid = Grid { origin, pitch, res: res as i32, z_clip, slack, margin };
+        let light_tris: Vec<([Vec3; 3], bool)> = scene
+            .triangles
+            .par_iter()
+            .zip(&scene.shading)
+            .map(|(t, s)| {
+                let v = [t.v0, t.v1, t.v2].map(|p| frame.light_from_world(Vec3::from(p)));
+                let opaque = matches!(scene.materials[s.material as usize].alpha, AlphaMode::Opaque);
+                (v, opaque)
+            })
+            .collect();
+        let raster = light_tris
+            .par_chunks(4096)
+            .fold(
+                || (Raster::new(n), Vec::new(), Vec::new()),
+                |(mut r, mut a, mut b), chunk| {
+                    for (v, opaque) in chunk {
+                        grid.triangle(*v, *opaque, &mut r, &mut a, &mut b);
+                    }
+                    (r, a, b)
+                },
+            )
+            .map(|(r, _, _)| r)
+            .reduce(|| Raster::new(n), Raster::merge);
+        let opaque: Vec<[Vec3; 3]> = light_tris.iter().filter(|(_, o)| *o).map(|(v, _)| *v).collect();
+        let open = open_edges(&opaque);
+        // Open edges only set flags: rasterized into flag maps of their own, then ORed in.
+        let open_flags = open
+            .par_chunks(1024)
+            .fold(
+                || vec![0u8; n],
+                |mut flags, chunk| {
+                    for (p, q) in chunk {
+                        grid.open_edge(*p, *q, &mut flags);
+                    }
+                    flags
+                },
+            )
+            .reduce(
+                || vec![0u8; n],
+                |mut a, b| {
+                    a.iter_mut().zip(&b).for_each(|(x, y)| *x |= *y);
+                    a
+                },
+            );
+        let mut raster = raster;
+        raster.flags.iter_mut().zip(&open_flags).for_each(|(x, y)| *x |= *y);
+        let runs = pixel_runs(std::mem::take(&mut raster.ranges), n);
+        let Blocks { near2, end2, next2, far2, near_on_map } = blocks(&raster, &runs, res as usize);
+        DepthBounds {
+            resolution: res,
+            near2,
+            end2,
+            next2,
+            far2,
+            near_on_map,
+            z_clip,
+            triangles: light_tris.len() as u64,
+            open_edges: open.len() as u64,
+        }
+    }
+
+    /// The nearest depth in the block at (i, j); 0 outside the map.
+    #[inline]
+    pub fn near2_at(&self, i: i32, j: i32) -> f32 {
+        let n = self.resolution as i32;
+        if i < 0 || j < 0 || i >= n || j >= n {
+            return 0.0;
+        }
+        self.near2[(j * n + i) as usize]
+    }
+
+    /// The first run's end and the next run's start in the block at (i, j); (0, 0) outside
+    /// the map.
+    #[inline]
+    pub fn gap2_at(&self, i: i32, j: i32) -> (f32, f32) {
+        let n = self.resolution as i32;
+        if i < 0 || j < 0 || i >= n || j >= n {
+            return (0.0, 0.0);
+        }
+        let k = (j * n + i) as usize;
+        (self.end2[k], self.next2[k])
+    }
+
+    /// The deepest opaque depth of the covered block at (i, j); NaN where not covered.
+    #[inline]
+    pub fn far2_at(&self, i: i32, j: i32) -> f32 {
+        let n = self.resolution as i32;
+        if i < 0 || j < 0 || i >= n || j >= n {
+            return f32::NAN;
+        }
+        self.far2[(j * n + i) as usize]
+    }
+
+    pub fn bytes(&self) -> u64 {
+        ((self.near2.len() + self.end2.len() + self.next2.len() + self.far2.len() + self.near_on_map.len())
+            * 4) as u64
+    }
+}
+
+/// What one pixel's depth ranges say: the first run of overlapping ranges `[a1, b1]`, where
+/// the next begins (`a2`; free space between), and the end of the first run holding an opaque
+/// range (a bound on the nearest opaque sheet; -inf where none).
+#[derive(Clone, Copy)]
+struct Runs {
+    a1: f32,
+    b1: f32,
+    a2: f32,
+    far: f32,
+}
+
+const EMPTY: Runs = Runs { a1: f32::INFINITY, b1: f32::INFINITY, a2: f32::INFINITY, far: f32::NEG_INFINITY };
+
+/// Per pixel, its [`Runs`].
+fn pixel_runs(mut ranges: Vec<(u32, f32, f32, bool)>, n: usize) -> Vec<Runs> {
+    ranges.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.total_cmp(&b.2)));
+    let mut runs = vec![EMPTY; n];
+    let mut k = 0;
+    while k < ranges.len() {
+        let pixel = ranges[k].0;
+        let mut end = k;
+        while end < ranges.len() && ranges[end].0 == pixel {
+            end += 1;
+        }
+        // Walk the runs in order of their nearest depth (ranges are sorted by it).
+        let (mut lo, mut hi, mut opaque) = (ranges[k].1, ranges[k].2, ranges[k].3);
+        let mut r = Runs { a1: lo, b1: f32::NAN, a2: f32::INFINITY, far: f32::NEG_INFINITY };
+        for &(_, a, b, o) in &ranges[k + 1..end] {
+            if a <= hi {
+                hi = hi.max(b);
+                opaque |= o;
+                continue;
+            }
+            // A run ends at `hi`.
+            if r.b1.is_nan() {
+                (r.b1, r.a2) = (hi, a);
+            }
+            if opaque && r.far == f32::NEG_INFINITY {
+                r.far = hi;
+            }
+            (lo, hi, opaque) = (a, b, o);
+        }
+        let _ = lo;
+        if r.b1.is_nan() {
+            r.b1 = hi;
+        }
+        if opaque && r.far == f32::NEG_INFINITY {
+            r.far = hi;
+        }
+        runs[pixel as usize] = r;
+        k = end;
+    }
+    runs
+}
+
+/// The 2 x 2 block bounds of a raster: its first run and where the next begins over the four
+/// pixels (near 0 where one is off the map), far where all four are covered; and near over
+/// the pixels of each block on the map (for the pyramid that picks regions: a border block's
+/// 0 would make every region reaching it reach to the light).
+fn blocks(r: &Raster, runs: &[Runs], res: usize) -> Blocks {
+    let n = res * res;
+    let mut b = Blocks {
+        near2: vec![0.0; n],
+        end2: vec![0.0; n],
+        next2: vec![0.0; n],
+        far2: vec![f32::NAN; n],
+        near_on_map: vec![f32::INFINITY; n],
+    };
+    for j in 0..res {
+        for i in 0..res {
+            let ks = [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)];
+            let on_map: Vec<usize> =
+                ks.iter().filter(|(a, b)| *a < res && *b < res).map(|(a, b)| b * res + a).collect();
+            let k = j * res + i;
+            b.near_on_map[k] = on_map.iter().map(|&p| r.near[p]).fold(f32::INFINITY, f32::min);
+            if on_map.len() < 4 {
+                continue;
+            }
+            // The union of the four pixels' first runs and everything from their next runs on.
+            let mut iv: Vec<(f32, f32)> = on_map
+                .iter()
+                .flat_map(|&p| [(runs[p].a1, runs[p].b1), (runs[p].a2, f32::INFINITY)])
+                .collect();
+            iv.sort_by(|x, y| x.0.total_cmp(&y.0));
+            let (a1, mut b1) = iv[0];
+            let mut a2 = f32::INFINITY;
+            for &(a, e) in &iv[1..] {
+                if a <= b1 {
+                    b1 = b1.max(e);
+                } else {
+                    a2 = a;
+                    break;
+                }
+            }
+            (b.near2[k], b.end2[k], b.next2[k]) = (a1, b1, a2);
+            if on_map.iter().all(|&p| r.flags[p] == OPAQUE) {
+                b.far2[k] = on_map.iter().map(|&p| runs[p].far).fold(f32::NEG_INFINITY, f32::max);
+            }
+        }
+    }
+    b
+}
+
+/// [`blocks`]' arrays.
+struct Blocks {
+    near2: Vec<f32>,
+    end2: Vec<f32>,
+    next2: Vec<f32>,
+    far2: Vec<f32>,
+    near_on_map: Vec<f32>,
+}
+
+impl DepthBounds {
+    /// The exact reading's map for `light`: the frustum fitted to the receivers as for every
+    /// depth map ([`super::DepthMapParams`]' fit), the bounds rasterized into it, and the near
+    /// bounds as a [`DepthMap`] (its pyramid shrinks regions and culls blocks).
+    pub fn build_for_light(
+        scene: &Scene,
+        light: &renderer::RectLight,
+        visible: &[renderer::VisiblePoint],
+        params: &super::DepthMapParams,
+    ) -> (DepthBounds, super::DepthMap) {
+        let frame = LightFrame::new(light);
+        let res = params.resolution.max(4);
+        let super::fit::Frustum { origin, pitch, caster_z_near } =
+            super::fit::fit(scene, light, &frame, visible, params, res);
+        // Geometry nearer the light than this is left to the far-field shaft: its projection
+        // runs off to infinity at the light's plane.
+        let z_clip = if caster_z_near.is_finite() && caster_z_near > 0.0 {
+            1e-3 * caster_z_near
+        } else {
+            1e-6 * scene.coordinate_bound().max(1e-30)
+        };
+        let bounds = DepthBounds::build(scene, &frame, origin, pitch, res, z_clip, caster_z_near);
+        let near = super::DepthMap::from_depths(frame, origin, pitch, res, bounds.near_on_map.clone());
+        (bounds, near)
+    }
+}

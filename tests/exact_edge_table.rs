@@ -1,0 +1,271 @@
+//! The exact edge-table reading against the BVH: every ray its masks call clear or blocked is
+//! traced and must agree (0 disagreements), and its visibility must equal tracing every ray
+//! of the same sample set, bit for bit. Run through the ordinary render path (a wrapping
+//! method checks each query), on the default scene, the bench scenes, every shared scene,
+//! random triangle soups and terraced heightfields.
+
+mod common;
+
+use common::gltf_writer::{GltfBuilder, TempDir};
+use penumbra::{RenderArgs, run_render};
+use renderer::ray_origin::offset_origin;
+use renderer::sampling::Rng;
+use renderer::{LightShadowing, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod, ShadowQuery};
+use serde_json::json;
+use shadow_plugin::{EdgeTable, EdgeTableParams};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// `edge_table` (exact reading) wrapped: each query's verdicts are checked against traced
+/// rays, and its answer against the all-traced answer on the same samples.
+struct Checked {
+    inner: EdgeTable,
+    light: Option<RectLight>,
+    clear: AtomicU64,
+    blocked: AtomicU64,
+    wrong: AtomicU64,
+    answers_differ: AtomicU64,
+}
+
+impl LightShadowing for Checked {
+    fn name(&self) -> &'static str {
+        "edge_table"
+    }
+    fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
+        self.light = Some(*ctx.light);
+        self.inner.prepare(ctx)
+    }
+    fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
+        let light = self.light.as_ref().unwrap();
+        if let Some(verdicts) = self.inner.classify_rays(scene, q) {
+            for ([a, b], verdict) in verdicts {
+                let Some(clear) = verdict else { continue };
+                let target = light.point(a, b);
+                let w = target - q.p;
+                if q.n_shading.dot(w) <= 0.0 {
+                    continue; // below the horizon: not counted
+                }
+                let from = offset_origin(q.p, q.p_error, q.n_geom, w);
+                let occluded =
+                    scene.segment_occluded_from(from, target, light.point_error(a, b), light.normal);
+                let counter = if clear { &self.clear } else { &self.blocked };
+                counter.fetch_add(1, Ordering::Relaxed);
+                if occluded == clear {
+                    self.wrong.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        }
+        let v = self.inner.visibility(scene, q);
+        if v.to_bits() != self.inner.visibility_all_traced(scene, q).to_bits() {
+            self.answers_differ.fetch_add(1, Ordering::Relaxed);
+        }
+        v
+    }
+    fn counters(&self) -> Vec<(&'static str, u64)> {
+        vec![
+            ("checked_clear", self.clear.load(Ordering::Relaxed)),
+            ("checked_blocked", self.blocked.load(Ordering::Relaxed)),
+            ("checked_wrong", self.wrong.load(Ordering::Relaxed)),
+            ("answers_differ", self.answers_differ.load(Ordering::Relaxed)),
+        ]
+    }
+    fn memory_bytes(&self) -> u64 {
+        self.inner.memory_bytes()
+    }
+}
+
+#[derive(Debug)]
+struct CheckedMethod(EdgeTableParams);
+
+impl ShadowMethod for CheckedMethod {
+    fn name(&self) -> &'static str {
+        "edge_table"
+    }
+    fn max_samples(&self) -> u32 {
+        4096
+    }
+    fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
+        Box::new(Checked {
+            inner: EdgeTable::new(self.0, samples),
+            light: None,
+            clear: AtomicU64::new(0),
+            blocked: AtomicU64::new(0),
+            wrong: AtomicU64::new(0),
+            answers_differ: AtomicU64::new(0),
+        })
+    }
+}
+
+/// (clear rays checked, blocked rays checked, disagreements, answers differing).
+fn check(scene: &Path, width: u32, height: u32, samples: u32) -> [u64; 4] {
+    let dir = std::env::temp_dir().join(format!("penumbra-exact-{}", std::process::id()));
+    let stem = scene.file_stem().unwrap().to_string_lossy().to_string();
+    let out = dir.join(format!("{stem}.png"));
+    let args = RenderArgs {
+        scene: Some(scene.to_path_buf()),
+        samples: Some(samples),
+        width: Some(width),
+        height: Some(height),
+        out: Some(out.clone()),
+        quiet: true,
+        method: Some(Arc::new(CheckedMethod(EdgeTableParams::default()))),
+        ..Default::default()
+    };
+    let outcome = run_render(&args).unwrap_or_else(|e| panic!("{}: {e}", scene.display()));
+    for suffix in ["png", "exr", "json"] {
+        let _ = std::fs::remove_file(out.with_extension(suffix));
+    }
+    let c = &outcome.report.counters;
+    let get = |k: &str| *c.get(k).unwrap_or_else(|| panic!("{k} missing from {c:?}"));
+    let got = [get("checked_clear"), get("checked_blocked"), get("checked_wrong"), get("answers_differ")];
+    eprintln!(
+        "{}: {} clear, {} blocked checked; {} wrong; {} answers differ",
+        scene.display(),
+        got[0],
+        got[1],
+        got[2],
+        got[3]
+    );
+    got
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Sums the checks over scenes and asserts none disagrees; returns the rays checked.
+fn check_all(scenes: &[PathBuf], width: u32, height: u32, samples: u32) -> u64 {
+    let mut total = [0u64; 4];
+    for s in scenes {
+        let got = check(s, width, height, samples);
+        for k in 0..4 {
+            total[k] += got[k];
+        }
+    }
+    assert_eq!(total[2], 0, "rays the masks decided that the BVH disagrees with");
+    assert_eq!(total[3], 0, "answers differing from tracing the same samples");
+    total[0] + total[1]
+}
+
+/// The default scene: visibility equal to tracing the same samples, bit for bit, at every
+/// pixel, and every decided ray agreeing with the BVH.
+#[test]
+fn default_scene_equals_tracing_the_same_samples() {
+    let rays = check_all(&[root().join("scenes/default.toml")], 160, 120, 256);
+    assert!(rays > 1_000_000, "only {rays} decided rays checked");
+}
+
+/// The bench scenes and every shared scene: at least 10^6 decided rays, none wrong.
+#[test]
+fn shared_and_bench_scenes_agree_with_the_bvh() {
+    let mut scenes: Vec<PathBuf> = std::fs::read_dir(root().join("scenes/gltf"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    scenes.sort();
+    let rays = check_all(&scenes, 64, 48, 256);
+    assert!(rays > 1_000_000, "only {rays} decided rays checked");
+}
+
+/// Writes a glTF of `tris` (each three points) with one opaque material, or alpha-masked
+/// ones every `alpha_every`-th triangle (never covers).
+fn soup(dir: &TempDir, name: &str, tris: &[[[f32; 3]; 3]]) -> PathBuf {
+    let mut g = GltfBuilder::default();
+    let positions: Vec<[f32; 3]> = tris.iter().flatten().copied().collect();
+    let pos = g.positions(&positions);
+    let material = g.material(
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1.0]}, "doubleSided": true}),
+    );
+    let mesh = g.mesh(vec![json!({"attributes": {"POSITION": pos}, "material": material})]);
+    let node = g.node(json!({"mesh": mesh}));
+    let scene = g.scene(&[node]);
+    g.set_default_scene(scene);
+    g.write(&dir.path, name)
+}
+
+/// A scene file around a model: a floor, a square light above, a camera looking down.
+fn scene_file(dir: &TempDir, name: &str, model: &Path, light_size: f64) -> PathBuf {
+    let text = format!(
+        r#"[[model]]
+path = "{}"
+[[quad]]
+center = [0.0, 0.0, 0.0]
+u = [6.0, 0.0, 0.0]
+v = [0.0, 0.0, -6.0]
+color = [0.7, 0.7, 0.7]
+[camera]
+position = [0.3, 3.2, 2.4]
+look_at = [0.0, 0.2, 0.0]
+up = [0.0, 1.0, 0.0]
+yfov_deg = 50.0
+[[light]]
+center = [0.2, 2.5, 0.1]
+u = [{light_size}, 0.0, 0.0]
+v = [0.0, 0.0, {light_size}]
+radiance = [5.0, 5.0, 5.0]
+"#,
+        model.display().to_string().replace('\\', "/")
+    );
+    let path = dir.join(&format!("{name}.toml"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Random triangle soups (sizes from a millimetre to a metre, any orientation, some sharing
+/// edges) and terraced heightfields (closed steps: shared edges, covers, walls), each under a
+/// light of its own size: every decided ray agrees with the BVH.
+#[test]
+fn random_soups_and_heightfields_agree_with_the_bvh() {
+    let dir = TempDir::new("exact-soups");
+    let mut scenes = Vec::new();
+    let mut rng = Rng::new(17);
+    let mut r = move || rng.next_f32();
+    for k in 0..6 {
+        let mut tris = Vec::new();
+        let scale = [0.003f32, 0.05, 0.3, 1.0, 0.02, 0.2][k];
+        for _ in 0..400 {
+            let c = [r() * 2.0 - 1.0, 0.05 + r() * 1.5, r() * 2.0 - 1.0];
+            let mut t = [[0.0f32; 3]; 3];
+            for v in &mut t {
+                *v = [c[0] + (r() - 0.5) * scale, c[1] + (r() - 0.5) * scale, c[2] + (r() - 0.5) * scale];
+            }
+            tris.push(t);
+            // Every fourth triangle gets a neighbour sharing an edge (a fold or a flat pair).
+            if r() < 0.25 {
+                let d = [c[0] + (r() - 0.5) * scale, c[1] + (r() - 0.5) * scale, c[2] + (r() - 0.5) * scale];
+                tris.push([t[1], t[0], d]);
+            }
+        }
+        let model = soup(&dir, &format!("soup{k}"), &tris);
+        scenes.push(scene_file(&dir, &format!("soup{k}"), &model, [0.2, 0.6, 1.2][k % 3]));
+    }
+    for k in 0..3 {
+        // A terraced heightfield: an n x n grid of columns with random heights, each a closed
+        // box (top and four sides), sharing edges with nothing: covers on the tops.
+        let n = 8 + 4 * k;
+        let cell = 1.6 / n as f32;
+        let mut tris = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let h = 0.05 + r() * 0.6 * (k as f32 + 1.0) / 3.0;
+                let (x0, z0) = (-0.8 + i as f32 * cell, -0.8 + j as f32 * cell);
+                let (x1, z1) = (x0 + cell * 0.8, z0 + cell * 0.8);
+                let top = [[x0, h, z0], [x1, h, z0], [x1, h, z1], [x0, h, z1]];
+                tris.push([top[0], top[1], top[2]]);
+                tris.push([top[0], top[2], top[3]]);
+                for s in 0..4 {
+                    let (a, b) = (top[s], top[(s + 1) % 4]);
+                    let (a0, b0) = ([a[0], 0.0, a[2]], [b[0], 0.0, b[2]]);
+                    tris.push([a, b, b0]);
+                    tris.push([a, b0, a0]);
+                }
+            }
+        }
+        let model = soup(&dir, &format!("terrace{k}"), &tris);
+        scenes.push(scene_file(&dir, &format!("terrace{k}"), &model, [0.3, 0.8, 1.5][k]));
+    }
+    let rays = check_all(&scenes, 64, 48, 256);
+    assert!(rays > 300_000, "only {rays} decided rays checked");
+}
