@@ -39,7 +39,7 @@ fn scene_head(h: &mut String, r: &SceneResult) {
     let _ = write!(
         h,
         "<h2>{}</h2>\n<p>{} ({} triangles), {}x{}, truth: traced N={}{}. Equal-error speedup of \
-edge_table (default, highlighted): {}.</p>\n<p><img class=\"plot\" src=\"{}/plot.png\" alt=\"{} plot\"><br>\
+edge_table (default, highlighted): on visibility RMSE {}; on the image's relative RMSE {}; on penumbra RMSE {}.</p>\n<p><img class=\"plot\" src=\"{}/plot.png\" alt=\"{} plot\"><br>\
 <small>x: shadow cost (s), y: visibility RMSE, both log; a line per method; the Pareto front ringed \
 (<a href=\"{}/plot.svg\">SVG</a>).</small></p>\n",
         esc(&r.stem),
@@ -50,6 +50,8 @@ edge_table (default, highlighted): {}.</p>\n<p><img class=\"plot\" src=\"{}/plot
         r.truth_samples,
         if r.truth_cached { ", from the cache" } else { "" },
         esc(&speedup_text(&r.speedup)),
+        esc(&speedup_text(&r.speedup_image)),
+        esc(&speedup_text(&r.speedup_penumbra)),
         esc(&r.stem),
         esc(&r.stem),
         esc(&r.stem)
@@ -62,14 +64,16 @@ fn table(h: &mut String, r: &SceneResult) {
     h.push_str(
         "<table><tr><th>setting</th><th>shadow cost (s)</th><th>prepare (s)</th><th>render (s)</th>\
 <th>RMSE</th><th>penumbra RMSE</th><th>p99</th><th>max</th><th>leak</th><th>false shadow</th>\
-<th>image rel. RMSE</th><th>peak RSS (MiB)</th><th>method (MiB)</th></tr>\n",
+<th>image rel. RMSE</th><th>rays traced</th><th>lookups / point</th><th>prepare share</th>\
+<th>peak RSS (MiB)</th><th>method (MiB)</th></tr>\n",
     );
     for row in &r.rows {
         let e = &row.errors;
         let _ = writeln!(
             h,
             "<tr{}><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.4}</td><td>{:.4}</td>\
-<td>{:.3}</td><td>{:.3}</td><td>{:.2}%</td><td>{:.3}%</td><td>{:.4}</td><td>{:.0}</td><td>{:.1}</td></tr>",
+<td>{:.3}</td><td>{:.3}</td><td>{:.2}%</td><td>{:.3}%</td><td>{:.4}</td><td>{:.1}%</td><td>{:.0}</td>\
+<td>{:.1}%</td><td>{:.0}</td><td>{:.1}</td></tr>",
             if row.edge_table_default { " class=\"default\"" } else { "" },
             esc(&row.setting),
             row.shadow_cost_s,
@@ -82,6 +86,9 @@ fn table(h: &mut String, r: &SceneResult) {
             100.0 * e.leak_rate,
             100.0 * e.false_shadow_rate,
             e.image_relative_rmse,
+            100.0 * row.traced_ray_share,
+            row.lookups_per_query,
+            100.0 * row.prepare_share,
             row.peak_rss_mib,
             row.method_mib
         );

@@ -31,12 +31,18 @@ pub struct Row {
     /// What the method says it holds (depth map and masks), MiB.
     pub method_mib: f64,
     pub fallbacks: u64,
+    /// Rays traced through the BVH (whole or in part) over shadow queries x samples.
+    pub traced_ray_share: f64,
+    /// Edge-table lookups per shadow query.
+    pub lookups_per_query: f64,
+    /// shadow_prepare over the shadow cost.
+    pub prepare_share: f64,
     #[serde(flatten)]
     pub errors: Errors,
 }
 
 /// CSV header and line of a row (every field of the JSON, in the same order).
-const CSV_HEADER: &str = "scene,method,setting,samples,edge_table_default,width,height,repeats,shadow_prepare_s,render_s,total_s,shadow_cost_s,peak_rss_mib,method_mib,fallbacks,rmse,penumbra_rmse,p99,max,leak_rate,false_shadow_rate,penumbra_bias,image_relative_rmse,lit_pixels,penumbra_pixels,dark_pixels,bright_pixels";
+const CSV_HEADER: &str = "scene,method,setting,samples,edge_table_default,width,height,repeats,shadow_prepare_s,render_s,total_s,shadow_cost_s,peak_rss_mib,method_mib,fallbacks,traced_ray_share,lookups_per_query,prepare_share,rmse,penumbra_rmse,p99,max,leak_rate,false_shadow_rate,penumbra_bias,image_relative_rmse,lit_pixels,penumbra_pixels,dark_pixels,bright_pixels";
 
 /// A CSV field: quoted (quotes doubled) when it holds a comma, quote or line break. The
 /// `csv` crate cannot write the flattened `Row` (serde's `flatten` goes through a map).
@@ -47,7 +53,7 @@ fn csv_field(s: &str) -> String {
 fn csv_line(r: &Row) -> String {
     let e = &r.errors;
     format!(
-        "{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.1},{:.3},{},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{},{}",
+        "{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.1},{:.3},{},{:.4},{:.1},{:.4},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{:.6},{},{},{},{}",
         csv_field(&r.scene),
         r.method,
         csv_field(&r.setting),
@@ -63,6 +69,9 @@ fn csv_line(r: &Row) -> String {
         r.peak_rss_mib,
         r.method_mib,
         r.fallbacks,
+        r.traced_ray_share,
+        r.lookups_per_query,
+        r.prepare_share,
         e.rmse,
         e.penumbra_rmse,
         e.p99,
@@ -107,7 +116,9 @@ pub(super) fn json(
         "scenes": results.iter().map(|s| serde_json::json!({
             "scene": s.stem, "path": s.path, "triangles": s.triangles, "width": s.width,
             "height": s.height, "truth_samples": s.truth_samples, "truth_cached": s.truth_cached,
-            "truth_seconds": s.truth_seconds, "equal_error_speedup": s.speedup, "skipped": s.skipped,
+            "truth_seconds": s.truth_seconds, "equal_error_speedup": s.speedup,
+            "equal_error_speedup_image": s.speedup_image,
+            "equal_error_speedup_penumbra": s.speedup_penumbra, "skipped": s.skipped,
         })).collect::<Vec<_>>(),
         "rows": all_rows,
     })
@@ -126,8 +137,12 @@ pub struct SceneResult {
     pub rows: Vec<Row>,
     /// Per method family: (setting label, image file, heat-map file), the best setting's.
     pub best: Vec<(String, String, String, String)>,
-    /// The equal-error speedup of `edge_table` (default, 1024 samples), if it was run.
+    /// The equal-error speedup of `edge_table` (default, 1024 samples), if it was run: on
+    /// visibility RMSE, on the final image's relative RMSE (what a user sees) and on the
+    /// penumbra RMSE.
     pub speedup: Option<Speedup>,
+    pub speedup_image: Option<Speedup>,
+    pub speedup_penumbra: Option<Speedup>,
     /// Settings not run (see `--max-run-seconds`).
     pub skipped: Vec<String>,
 }
@@ -155,7 +170,37 @@ pub struct Speedup {
     pub interpolated_ratio: Option<f64>,
 }
 
+/// Which error an equal-error speedup matches.
+#[derive(Debug, Clone, Copy)]
+pub enum Measure {
+    Visibility,
+    Image,
+    Penumbra,
+}
+
+impl Measure {
+    fn of(self, e: &Errors) -> f64 {
+        match self {
+            Measure::Visibility => e.rmse,
+            Measure::Image => e.image_relative_rmse,
+            Measure::Penumbra => e.penumbra_rmse,
+        }
+    }
+}
+
+/// [`equal_error_speedup_on`] the visibility RMSE.
 pub(super) fn equal_error_speedup(rows: &[Row]) -> Option<Speedup> {
+    equal_error_speedup_on(rows, Measure::Visibility)
+}
+
+/// The equal-error speedup of the default `edge_table` row against the `traced` runs, on
+/// `measure`.
+pub(super) fn equal_error_speedup_on(rows: &[Row], measure: Measure) -> Option<Speedup> {
+    let rows: Vec<Row> = rows
+        .iter()
+        .map(|r| Row { errors: Errors { rmse: measure.of(&r.errors), ..r.errors }, ..r.clone() })
+        .collect();
+    let rows = &rows[..];
     let et = rows.iter().find(|r| r.edge_table_default)?;
     let mut traced: Vec<&Row> = rows
         .iter()
@@ -260,6 +305,8 @@ pub(super) fn summary(args: &BenchArgs, results: &[SceneResult]) -> String {
             }
         }
         let _ = writeln!(s, "  equal-error speedup of edge_table: {}", speedup_text(&r.speedup));
+        let _ = writeln!(s, "    on image error: {}", speedup_text(&r.speedup_image));
+        let _ = writeln!(s, "    on penumbra RMSE: {}", speedup_text(&r.speedup_penumbra));
         if !r.skipped.is_empty() {
             let _ = writeln!(s, "  skipped: {}", r.skipped.join("; "));
         }
@@ -289,6 +336,9 @@ mod tests {
             peak_rss_mib: 0.0,
             method_mib: 0.0,
             fallbacks: 0,
+            traced_ray_share: 0.0,
+            lookups_per_query: 0.0,
+            prepare_share: 0.0,
             errors: Errors { rmse, ..Errors::default() },
         }
     }

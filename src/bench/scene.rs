@@ -1,7 +1,7 @@
 //! One scene's bench: the scene files checked, then per scene `none` (the cost floor), the
 //! truth, every setting of the sweep timed and scored ([`Row`]), and the figures.
 
-use super::report::{Row, SceneResult, equal_error_speedup};
+use super::report::{Measure, Row, SceneResult, equal_error_speedup, equal_error_speedup_on};
 use super::run::{Run, median, run_setting};
 use super::sweep::{CostOrder, Setting, no_costlier, none_setting};
 use super::truth::Truth;
@@ -153,6 +153,8 @@ pub(super) fn bench_scene(
     figures::stage_plot(staged, &scene_dir, &title, &series).map_err(io)?;
 
     let speedup = equal_error_speedup(&rows);
+    let speedup_image = equal_error_speedup_on(&rows, Measure::Image);
+    let speedup_penumbra = equal_error_speedup_on(&rows, Measure::Penumbra);
     Ok(SceneResult {
         stem: stem.to_string(),
         path: path.display().to_string(),
@@ -165,6 +167,8 @@ pub(super) fn bench_scene(
         rows,
         best: best_files,
         speedup,
+        speedup_image,
+        speedup_penumbra,
         skipped,
     })
 }
@@ -243,6 +247,11 @@ fn row(base: &Baseline, s: &Setting, run: &Run) -> Row {
     );
     let (prep, rend) = (median(run.prepare.clone()), median(run.render.clone()));
     let counter = |k: &str| run.frame.counters.get(k).copied().unwrap_or(0);
+    let queries = counter("shadow_queries").max(1) as f64;
+    // Traced rays: traced's own, the exact edge_table's (whole or a field of them), the
+    // published readings' fallbacks'.
+    let rays = counter("shadow_rays") + counter("fallback_shadow_rays");
+    let cost = median(run.totals.clone()) - base.none_total;
     Row {
         scene: base.stem.to_string(),
         method: s.method.name().to_string(),
@@ -259,6 +268,9 @@ fn row(base: &Baseline, s: &Setting, run: &Run) -> Row {
         peak_rss_mib: run.peak,
         method_mib: (counter("mask_bytes") + counter("depth_map_bytes")) as f64 / 1048576.0,
         fallbacks: counter("fallbacks"),
+        traced_ray_share: rays as f64 / (queries * f64::from(s.samples)),
+        lookups_per_query: counter("edge_lookups") as f64 / queries,
+        prepare_share: if cost > 0.0 { prep / cost } else { f64::NAN },
         errors,
     }
 }

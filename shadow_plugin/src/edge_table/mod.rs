@@ -263,7 +263,8 @@ impl EdgeTable {
     fn prepare_exact(&self, ctx: &PrepareContext) -> Result<Prepared, ShadowError> {
         let (bounds, near) =
             DepthBounds::build_for_light(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map);
-        let map = Box::new(ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() });
+        let map =
+            Box::new(ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() });
         let (levels, _) = grid::depth_levels(&map.near, ctx.visible, self.params.grid[2]);
         let w_cap = map.stop_reach_quantile(ctx.visible, MASK_HEIGHT_QUANTILE);
         let per_level: Vec<(f32, f32)> = levels
