@@ -16,7 +16,8 @@
 //!   one point of the frustum and nearer than `near` at another crosses the nearest sheet:
 //!   blocked. (The nearest sheet's triangles there form one connected surface, so their depth
 //!   ranges form one run; other sheets, such as the floor under a card, may lie deeper.)
-//!   Alpha-tested triangles never cover.
+//!   Alpha-tested triangles never cover. A pixel wholly inside one opaque triangle is covered
+//!   by it alone, whatever other edges cross it (its own deepest point there is its `far`).
 //!
 //! Both bounds are then taken over 2 x 2 blocks of pixels ([`DepthBounds::near2`],
 //! [`DepthBounds::far2`]): a mask's reference ray and a point's own ray differ by a shift of
@@ -39,6 +40,9 @@ use renderer::ray_origin::gamma;
 
 /// Widening of every pixel's frustum, in pixels.
 pub const PIXEL_MARGIN: f32 = 1e-3;
+/// How far inside a triangle's image a pixel's corners must lie for the triangle alone to
+/// cover the pixel, in pixels (well above the projection's rounding).
+pub const COVER_INSIDE: f32 = 1e-3;
 /// Relative widening of every depth bound.
 pub const DEPTH_MARGIN: f32 = 1e-5;
 
@@ -74,9 +78,13 @@ struct Raster {
     ranges: Vec<(u32, f32, f32, bool)>,
     /// Bit 0: an opaque triangle overlaps; bit 1: an open edge (or a cut triangle) does.
     flags: Vec<u8>,
+    /// Per pixel, the opaque triangle wholly covering it whose deepest point there is
+    /// nearest, as (triangle, that depth); (u32::MAX, inf) where none.
+    cover: Vec<(u32, f32)>,
 }
 
 const OPAQUE: u8 = 1;
+const NO_COVER: (u32, f32) = (u32::MAX, f32::INFINITY);
 const OPEN: u8 = 2;
 
 /// The map's geometry: where its pixels are, and the slack of every test.
@@ -93,7 +101,12 @@ struct Grid {
 
 impl Raster {
     fn new(n: usize) -> Self {
-        Raster { near: vec![f32::INFINITY; n], ranges: Vec::new(), flags: vec![0; n] }
+        Raster {
+            near: vec![f32::INFINITY; n],
+            ranges: Vec::new(),
+            flags: vec![0; n],
+            cover: vec![NO_COVER; n],
+        }
     }
 
     fn merge(mut self, mut other: Raster) -> Raster {
@@ -101,6 +114,9 @@ impl Raster {
         for k in 0..self.near.len() {
             self.near[k] = self.near[k].min(other.near[k]);
             self.flags[k] |= other.flags[k];
+            if (other.cover[k].1, other.cover[k].0) < (self.cover[k].1, self.cover[k].0) {
+                self.cover[k] = other.cover[k];
+            }
         }
         self
     }
@@ -148,7 +164,16 @@ impl Grid {
 
     /// Rasterizes one triangle (light-frame vertices) into `r`: near, and for opaque ones far
     /// and the opaque flag; a triangle cut by `z_clip` marks its pixels open.
-    fn triangle(&self, v: [Vec3; 3], opaque: bool, r: &mut Raster, a: &mut Vec<Vec3>, b: &mut Vec<Vec3>) {
+    #[allow(clippy::too_many_arguments)]
+    fn triangle(
+        &self,
+        id: u32,
+        v: [Vec3; 3],
+        opaque: bool,
+        r: &mut Raster,
+        a: &mut Vec<Vec3>,
+        b: &mut Vec<Vec3>,
+    ) {
         let cut = v.iter().any(|p| p.z < self.z_clip);
         if v.iter().all(|p| p.z < self.z_clip) || !v.iter().all(|p| p.is_finite()) {
             return;
@@ -164,6 +189,17 @@ impl Grid {
         let m = self.margin;
         let Some((p_lo, p_hi)) = self.pixel_box(lo, hi, m) else { return };
         let poly: Vec<Vec3> = std::mem::take(a);
+        // Whole-pixel cover by this triangle alone: its image holds the widened pixel's four
+        // corners, each by more than COVER_INSIDE pixels (edge functions in pixel units).
+        let g = v.map(|p| self.image(p));
+        let orient = (g[1] - g[0]).perp_dot(g[2] - g[0]);
+        let can_cover = opaque && !cut && orient.is_finite() && orient != 0.0;
+        let inside = |c: Vec2| {
+            (0..3).all(|e| {
+                let (p, q) = (g[e], g[(e + 1) % 3]);
+                (q - p).perp_dot(c - p) * orient.signum() > COVER_INSIDE * (q - p).length()
+            })
+        };
         for j in p_lo[1]..=p_hi[1] {
             for i in p_lo[0]..=p_hi[0] {
                 // The pixel's frustum, widened by m pixels: x >= u0 z, x <= u1 z (likewise y).
@@ -186,6 +222,18 @@ impl Grid {
                 r.ranges.push((k as u32, zmin, zmax * (1.0 + DEPTH_MARGIN) + self.slack, opaque));
                 if opaque {
                     r.flags[k] |= OPAQUE;
+                }
+                if can_cover {
+                    let (x0, y0, x1, y1) =
+                        (i as f32 - m, j as f32 - m, i as f32 + 1.0 + m, j as f32 + 1.0 + m);
+                    let far = zmax * (1.0 + DEPTH_MARGIN) + self.slack;
+                    if far < r.cover[k].1
+                        && [Vec2::new(x0, y0), Vec2::new(x1, y0), Vec2::new(x1, y1), Vec2::new(x0, y1)]
+                            .into_iter()
+                            .all(inside)
+                    {
+                        r.cover[k] = (id, far);
+                    }
                 }
                 if cut {
                     r.flags[k] |= OPEN;
@@ -240,13 +288,25 @@ fn edge_key(a: Vec3, b: Vec3) -> EdgeKey {
 }
 
 /// The open edges of the opaque triangles (light-frame vertices): see the module doc.
+/// A 64-bit hash of an edge's key (FNV-1a with a shift): edges are sorted by it, 16 bytes
+/// each instead of 32.
+fn edge_hash(k: EdgeKey) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for x in k {
+        h = (h ^ u64::from(x)).wrapping_mul(0x0000_0100_0000_01b3);
+        h ^= h >> 29;
+    }
+    h
+}
+
 fn open_edges(tris: &[[Vec3; 3]]) -> Vec<(Vec3, Vec3)> {
-    let mut edges: Vec<(EdgeKey, u32, u8)> = tris
-        .par_iter()
-        .enumerate()
-        .flat_map_iter(|(t, v)| {
-            (0..3u8).map(move |e| (edge_key(v[e as usize], v[(e as usize + 1) % 3]), t as u32, e))
-        })
+    let key = |t: u32, e: u8| {
+        let v = &tris[t as usize];
+        edge_key(v[e as usize], v[(e as usize + 1) % 3])
+    };
+    let mut edges: Vec<(u64, u32, u8)> = (0..tris.len() as u32)
+        .into_par_iter()
+        .flat_map_iter(|t| (0..3u8).map(move |e| (edge_hash(key(t, e)), t, e)))
         .collect();
     edges.par_sort_unstable();
     let mut open = Vec::new();
@@ -258,6 +318,16 @@ fn open_edges(tris: &[[Vec3; 3]]) -> Vec<(Vec3, Vec3)> {
         }
         let (t, e) = (edges[k].1 as usize, edges[k].2 as usize);
         let (a, b) = (tris[t][e], tris[t][(e + 1) % 3]);
+        // A group whose members' keys differ (a hash collision) is open: conservative.
+        let same = edges[k + 1..end].iter().all(|x| key(x.1, x.2) == key(edges[k].1, edges[k].2));
+        if !same {
+            for x in &edges[k..end] {
+                let v = &tris[x.1 as usize];
+                open.push((v[x.2 as usize], v[(x.2 as usize + 1) % 3]));
+            }
+            k = end;
+            continue;
+        }
         let interior = end - k == 2 && {
             // The two third vertices on opposite sides of the plane through the edge and
             // the light's centre (the frame's origin), each by more than its rounding.
@@ -297,14 +367,15 @@ impl DepthBounds {
         // The world-space slack seen at the casters' nearest depth, in pixels.
         let margin = PIXEL_MARGIN + (slack / (z_casters.max(z_clip) * pitch)).min(0.25);
         let grid = Grid { origin, pitch, res: res as i32, z_clip, slack, margin };
-        let light_tris: Vec<([Vec3; 3], bool)> = scene
+        let light_tris: Vec<(u32, [Vec3; 3], bool)> = scene
             .triangles
             .par_iter()
             .zip(&scene.shading)
-            .map(|(t, s)| {
+            .enumerate()
+            .map(|(id, (t, s))| {
                 let v = [t.v0, t.v1, t.v2].map(|p| frame.light_from_world(Vec3::from(p)));
                 let opaque = matches!(scene.materials[s.material as usize].alpha, AlphaMode::Opaque);
-                (v, opaque)
+                (id as u32, v, opaque)
             })
             .collect();
         let raster = light_tris
@@ -312,15 +383,15 @@ impl DepthBounds {
             .fold(
                 || (Raster::new(n), Vec::new(), Vec::new()),
                 |(mut r, mut a, mut b), chunk| {
-                    for (v, opaque) in chunk {
-                        grid.triangle(*v, *opaque, &mut r, &mut a, &mut b);
+                    for (id, v, opaque) in chunk {
+                        grid.triangle(*id, *v, *opaque, &mut r, &mut a, &mut b);
                     }
                     (r, a, b)
                 },
             )
             .map(|(r, _, _)| r)
             .reduce(|| Raster::new(n), Raster::merge);
-        let opaque: Vec<[Vec3; 3]> = light_tris.iter().filter(|(_, o)| *o).map(|(v, _)| *v).collect();
+        let opaque: Vec<[Vec3; 3]> = light_tris.iter().filter(|(_, _, o)| *o).map(|(_, v, _)| *v).collect();
         let open = open_edges(&opaque);
         // Open edges only set flags: rasterized into flag maps of their own, then ORed in.
         let open_flags = open
@@ -410,8 +481,26 @@ struct Runs {
 const EMPTY: Runs = Runs { a1: f32::INFINITY, b1: f32::INFINITY, a2: f32::INFINITY, far: f32::NEG_INFINITY };
 
 /// Per pixel, its [`Runs`].
-fn pixel_runs(mut ranges: Vec<(u32, f32, f32, bool)>, n: usize) -> Vec<Runs> {
-    ranges.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.total_cmp(&b.2)));
+fn pixel_runs(ranges: Vec<(u32, f32, f32, bool)>, n: usize) -> Vec<Runs> {
+    // Bucketed by pixel (a counting sort: linear, where one comparison sort of metal-rough-
+    // spheres' 3 M ranges took most of its prepare), then each pixel's few sorted by depth.
+    let mut start = vec![0usize; n + 1];
+    for r in &ranges {
+        start[r.0 as usize + 1] += 1;
+    }
+    for k in 0..n {
+        start[k + 1] += start[k];
+    }
+    let mut next = start.clone();
+    let mut sorted = vec![(0u32, 0.0f32, 0.0f32, false); ranges.len()];
+    for r in ranges {
+        sorted[next[r.0 as usize]] = r;
+        next[r.0 as usize] += 1;
+    }
+    sorted.par_chunk_by_mut(|a, b| a.0 == b.0).for_each(|pixel| {
+        pixel.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.2.total_cmp(&b.2)).then(a.3.cmp(&b.3)));
+    });
+    let ranges = sorted;
     let mut runs = vec![EMPTY; n];
     let mut k = 0;
     while k < ranges.len() {
@@ -493,6 +582,15 @@ fn blocks(r: &Raster, runs: &[Runs], res: usize) -> Blocks {
             (b.near2[k], b.end2[k], b.next2[k]) = (a1, b1, a2);
             if on_map.iter().all(|&p| r.flags[p] == OPAQUE) {
                 b.far2[k] = on_map.iter().map(|&p| runs[p].far).fold(f32::NEG_INFINITY, f32::max);
+            }
+            // One opaque triangle over the whole block is a cover of its own, whatever other
+            // geometry's edges do there; the nearer of the two ends counts.
+            let id = r.cover[on_map[0]].0;
+            if id != NO_COVER.0 && on_map.iter().all(|&p| r.cover[p].0 == id) {
+                let far = on_map.iter().map(|&p| r.cover[p].1).fold(f32::NEG_INFINITY, f32::max);
+                if b.far2[k].is_nan() || far < b.far2[k] {
+                    b.far2[k] = far;
+                }
             }
         }
     }

@@ -38,6 +38,13 @@ pub const STOP_MARGIN: f32 = 1e-3;
 /// Relative overlap in depth of a traced field's segment with the mid field the tables cover.
 pub const SEGMENT_OVERLAP: f32 = 1e-3;
 
+/// The share of a mask's samples that must lie above a point's horizon for the mask to answer
+/// it. Measured (bench, N = 1024, every sample above the horizon counted): exact RMSE 0.026 /
+/// 0.047 / 0.039 against traced's 0.0019 / 0.0021 / 0.0014 on glass-vase-flowers,
+/// metal-rough-spheres and toy-car, whose curved or tilted receivers see a sliver of the
+/// light: the few samples above it are noise (and none at all read 1).
+pub const HORIZON_SHARE: f32 = 0.5;
+
 /// Most pixels a point's rays cross in the tables before the far field takes over.
 pub const MAX_REACH: f32 = 12.0;
 
@@ -256,7 +263,8 @@ impl ExactMap {
 
     /// The visibility of `q` through mask `m` (bits over its samples): see the module doc.
     /// `traced_only` traces every counted ray (the reference the tests hold the
-    /// classification to).
+    /// classification to). None where the horizon leaves fewer than `HORIZON_SHARE` of the
+    /// samples: `traced` answers those (its strata are warped onto the part above).
     pub fn visibility(
         &self,
         scene: &Scene,
@@ -264,7 +272,7 @@ impl ExactMap {
         m: &ExactMask,
         traced_only: bool,
         stats: &mut ExactStats,
-    ) -> f32 {
+    ) -> Option<f32> {
         let light = &self.light;
         let frame = &self.near.frame;
         let n = m.mask.samples.len();
@@ -273,8 +281,8 @@ impl ExactMap {
         let above = &mut above[..words];
         crate::samples::above_horizon(frame, &m.mask.samples, Vec2::ONE, q.p, q.n_shading, above);
         let n_above = bits::count(above);
-        if n_above == 0 {
-            return 1.0; // as traced: a sliver too thin to resolve counts unshadowed
+        if (n_above as f32) < HORIZON_SHARE * n as f32 {
+            return None;
         }
         let origin = offset_origin(q.p, q.p_error, q.n_geom, q.n_geom);
         let mut decided = [0u64; MAX_WORDS];
@@ -333,7 +341,7 @@ impl ExactMap {
                 }
             }
         }
-        unblocked as f32 / n_above as f32
+        Some(unblocked as f32 / n_above as f32)
     }
 
     /// Each sample's verdict before tracing (tests): Some(true) clear, Some(false) blocked,

@@ -106,6 +106,7 @@ struct ExactCounters {
     shafts: AtomicU64,
     points_shaft_clear: AtomicU64,
     points_off_map: AtomicU64,
+    points_horizon_traced: AtomicU64,
     rays_near_traced: AtomicU64,
     rays_far_traced: AtomicU64,
 }
@@ -385,7 +386,12 @@ impl EdgeTable {
         grid.select(offset, z, &mut chosen);
         let (m, _) = grid.mask(chosen[0].0);
         let mut stats = ExactStats::default();
-        let v = map.visibility(scene, q, &masks[m as usize], traced_only, &mut stats);
+        // Where the horizon leaves the mask too few samples, traced's own (warped onto the part
+        // above the horizon, all N counting) answers: the same traced rays either way.
+        let Some(v) = map.visibility(scene, q, &masks[m as usize], traced_only, &mut stats) else {
+            c.points_horizon_traced.fetch_add(1, Ordering::Relaxed);
+            return self.fallback.trace(scene, q);
+        };
         if !traced_only {
             c.rays_clear.fetch_add(stats.rays_clear, Ordering::Relaxed);
             c.rays_blocked.fetch_add(stats.rays_blocked, Ordering::Relaxed);
@@ -432,7 +438,10 @@ impl LightShadowing for EdgeTable {
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
         self.state = None;
         self.state = Some(match self.params.reading {
-            Reading::Exact => self.prepare_exact(ctx)?,
+            Reading::Exact => {
+                self.fallback.prepare(ctx)?;
+                self.prepare_exact(ctx)?
+            }
             Reading::Published => {
                 self.fallback.prepare(ctx)?;
                 self.prepare_published(ctx)?
@@ -490,8 +499,10 @@ impl LightShadowing for EdgeTable {
                 ("shadow_rays_far_field", e.rays_far_traced.load(Ordering::Relaxed)),
                 ("points_shaft_clear", e.points_shaft_clear.load(Ordering::Relaxed)),
                 ("points_off_map", e.points_off_map.load(Ordering::Relaxed)),
+                ("points_horizon_traced", e.points_horizon_traced.load(Ordering::Relaxed)),
                 ("open_edges", map.bounds.open_edges),
             ]);
+            c.extend(self.fallback.counters().into_iter().filter(|(k, _)| k.starts_with("fallback_")));
         } else {
             c.extend([
                 ("early_outs", self.early_outs.load(Ordering::Relaxed)),
