@@ -262,12 +262,17 @@ impl EdgeTable {
     /// masks march (what the receivers' regions need, up to its [`MASK_HEIGHT_QUANTILE`]), the
     /// masks at their cells' lower corners, every one built (no mirroring).
     fn prepare_exact(&self, ctx: &PrepareContext) -> Result<Prepared, ShadowError> {
+        // The fit, the depth levels and the march height are estimates from the receivers
+        // (exactness does not rest on them): every k-th of at most QUANTILE_POINTS suffices,
+        // where all of them cost a shaft query each in the fit.
+        let stride = ctx.visible.len().div_ceil(exact::QUANTILE_POINTS).max(1);
+        let visible: Vec<VisiblePoint> = ctx.visible.iter().step_by(stride).copied().collect();
         let (bounds, near) =
-            DepthBounds::build_for_light(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map);
+            DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &self.params.depth_map);
         let map =
             Box::new(ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() });
-        let (levels, _) = grid::depth_levels(&map.near, ctx.visible, self.params.grid[2]);
-        let w_cap = map.stop_reach_quantile(ctx.visible, MASK_HEIGHT_QUANTILE);
+        let (levels, _) = grid::depth_levels(&map.near, &visible, self.params.grid[2]);
+        let w_cap = map.stop_reach_quantile(&visible, MASK_HEIGHT_QUANTILE);
         let per_level: Vec<(f32, f32)> = levels
             .iter()
             .map(|&z| {
