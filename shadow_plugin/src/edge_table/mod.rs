@@ -15,7 +15,7 @@
 //! Two readings ([`Reading`]):
 //!
 //! - **exact** (`exact.rs`, `mask/classify.rs`): the tables are read against conservative
-//!   depth bounds of every triangle (`depth_map/bounds.rs`), which classify each ray clear,
+//!   depth bounds of every triangle (`depth_map/bounds/`), which classify each ray clear,
 //!   blocked or undecided for every point the mask stands for; shafts through the BVH prove
 //!   the parts of the rays next to the point and next to the light; the undecided rays (or
 //!   the part of them a shaft could not prove) are traced through the BVH with the

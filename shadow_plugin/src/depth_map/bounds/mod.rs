@@ -31,12 +31,17 @@
 //! the light's centre in exact arithmetic while traced rays start at an offset origin and
 //! stop short of the light, and every projection here rounds.
 
+mod edges;
+mod runs;
+
 use super::LightFrame;
+use edges::open_edges;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use renderer::Scene;
 use renderer::material::AlphaMode;
 use renderer::ray_origin::gamma;
+use runs::{Blocks, blocks, pixel_runs};
 
 /// Widening of every pixel's frustum, in pixels.
 pub const PIXEL_MARGIN: f32 = 1e-3;
@@ -72,19 +77,19 @@ pub struct DepthBounds {
 
 /// Per-pixel accumulators of one rasterization pass.
 #[derive(Clone)]
-struct Raster {
-    near: Vec<f32>,
+pub(super) struct Raster {
+    pub(super) near: Vec<f32>,
     /// (pixel, nearest depth, deepest depth, opaque) of every triangle in every pixel.
-    ranges: Vec<(u32, f32, f32, bool)>,
+    pub(super) ranges: Vec<(u32, f32, f32, bool)>,
     /// Bit 0: an opaque triangle overlaps; bit 1: an open edge (or a cut triangle) does.
-    flags: Vec<u8>,
+    pub(super) flags: Vec<u8>,
     /// Per pixel, the opaque triangle wholly covering it whose deepest point there is
     /// nearest, as (triangle, that depth); (u32::MAX, inf) where none.
-    cover: Vec<(u32, f32)>,
+    pub(super) cover: Vec<(u32, f32)>,
 }
 
-const OPAQUE: u8 = 1;
-const NO_COVER: (u32, f32) = (u32::MAX, f32::INFINITY);
+pub(super) const OPAQUE: u8 = 1;
+pub(super) const NO_COVER: (u32, f32) = (u32::MAX, f32::INFINITY);
 const OPEN: u8 = 2;
 
 /// The map's geometry: where its pixels are, and the slack of every test.
@@ -277,78 +282,6 @@ impl Grid {
     }
 }
 
-/// Bit pattern of an edge's endpoints, smaller first: shared edges of a mesh have identical
-/// f32 vertices.
-type EdgeKey = [u32; 6];
-
-fn edge_key(a: Vec3, b: Vec3) -> EdgeKey {
-    let (ka, kb) = (a.to_array().map(f32::to_bits), b.to_array().map(f32::to_bits));
-    let (x, y) = if ka <= kb { (ka, kb) } else { (kb, ka) };
-    [x[0], x[1], x[2], y[0], y[1], y[2]]
-}
-
-/// The open edges of the opaque triangles (light-frame vertices): see the module doc.
-/// A 64-bit hash of an edge's key (FNV-1a with a shift): edges are sorted by it, 16 bytes
-/// each instead of 32.
-fn edge_hash(k: EdgeKey) -> u64 {
-    let mut h = 0xcbf2_9ce4_8422_2325u64;
-    for x in k {
-        h = (h ^ u64::from(x)).wrapping_mul(0x0000_0100_0000_01b3);
-        h ^= h >> 29;
-    }
-    h
-}
-
-fn open_edges(tris: &[[Vec3; 3]]) -> Vec<(Vec3, Vec3)> {
-    let key = |t: u32, e: u8| {
-        let v = &tris[t as usize];
-        edge_key(v[e as usize], v[(e as usize + 1) % 3])
-    };
-    let mut edges: Vec<(u64, u32, u8)> = (0..tris.len() as u32)
-        .into_par_iter()
-        .flat_map_iter(|t| (0..3u8).map(move |e| (edge_hash(key(t, e)), t, e)))
-        .collect();
-    edges.par_sort_unstable();
-    let mut open = Vec::new();
-    let mut k = 0;
-    while k < edges.len() {
-        let mut end = k + 1;
-        while end < edges.len() && edges[end].0 == edges[k].0 {
-            end += 1;
-        }
-        let (t, e) = (edges[k].1 as usize, edges[k].2 as usize);
-        let (a, b) = (tris[t][e], tris[t][(e + 1) % 3]);
-        // A group whose members' keys differ (a hash collision) is open: conservative.
-        let same = edges[k + 1..end].iter().all(|x| key(x.1, x.2) == key(edges[k].1, edges[k].2));
-        if !same {
-            for x in &edges[k..end] {
-                let v = &tris[x.1 as usize];
-                open.push((v[x.2 as usize], v[(x.2 as usize + 1) % 3]));
-            }
-            k = end;
-            continue;
-        }
-        let interior = end - k == 2 && {
-            // The two third vertices on opposite sides of the plane through the edge and
-            // the light's centre (the frame's origin), each by more than its rounding.
-            let n = a.cross(b);
-            let third = |i: usize| {
-                let (t, e) = (edges[i].1 as usize, edges[i].2 as usize);
-                tris[t][(e + 2) % 3]
-            };
-            let (c1, c2) = (third(k), third(k + 1));
-            let tol = |c: Vec3| gamma(8) * a.length() * b.length() * c.length();
-            let (s1, s2) = (n.dot(c1), n.dot(c2));
-            s1.abs() > tol(c1) && s2.abs() > tol(c2) && (s1 > 0.0) != (s2 > 0.0)
-        };
-        if !interior {
-            open.push((a, b));
-        }
-        k = end;
-    }
-    open
-}
-
 impl DepthBounds {
     /// Rasterizes every triangle of `scene` into a `res` x `res` map over the light frame
     /// `frame` (lower image-plane corner `origin`, pixel pitch `pitch`), down to depth
@@ -465,145 +398,6 @@ impl DepthBounds {
         ((self.near2.len() + self.end2.len() + self.next2.len() + self.far2.len() + self.near_on_map.len())
             * 4) as u64
     }
-}
-
-/// What one pixel's depth ranges say: the first run of overlapping ranges `[a1, b1]`, where
-/// the next begins (`a2`; free space between), and the end of the first run holding an opaque
-/// range (a bound on the nearest opaque sheet; -inf where none).
-#[derive(Clone, Copy)]
-struct Runs {
-    a1: f32,
-    b1: f32,
-    a2: f32,
-    far: f32,
-}
-
-const EMPTY: Runs = Runs { a1: f32::INFINITY, b1: f32::INFINITY, a2: f32::INFINITY, far: f32::NEG_INFINITY };
-
-/// Per pixel, its [`Runs`].
-fn pixel_runs(ranges: Vec<(u32, f32, f32, bool)>, n: usize) -> Vec<Runs> {
-    // Bucketed by pixel (a counting sort: linear, where one comparison sort of metal-rough-
-    // spheres' 3 M ranges took most of its prepare), then each pixel's few sorted by depth.
-    let mut start = vec![0usize; n + 1];
-    for r in &ranges {
-        start[r.0 as usize + 1] += 1;
-    }
-    for k in 0..n {
-        start[k + 1] += start[k];
-    }
-    let mut next = start.clone();
-    let mut sorted = vec![(0u32, 0.0f32, 0.0f32, false); ranges.len()];
-    for r in ranges {
-        sorted[next[r.0 as usize]] = r;
-        next[r.0 as usize] += 1;
-    }
-    sorted.par_chunk_by_mut(|a, b| a.0 == b.0).for_each(|pixel| {
-        pixel.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.2.total_cmp(&b.2)).then(a.3.cmp(&b.3)));
-    });
-    let ranges = sorted;
-    let mut runs = vec![EMPTY; n];
-    let mut k = 0;
-    while k < ranges.len() {
-        let pixel = ranges[k].0;
-        let mut end = k;
-        while end < ranges.len() && ranges[end].0 == pixel {
-            end += 1;
-        }
-        // Walk the runs in order of their nearest depth (ranges are sorted by it).
-        let (mut lo, mut hi, mut opaque) = (ranges[k].1, ranges[k].2, ranges[k].3);
-        let mut r = Runs { a1: lo, b1: f32::NAN, a2: f32::INFINITY, far: f32::NEG_INFINITY };
-        for &(_, a, b, o) in &ranges[k + 1..end] {
-            if a <= hi {
-                hi = hi.max(b);
-                opaque |= o;
-                continue;
-            }
-            // A run ends at `hi`.
-            if r.b1.is_nan() {
-                (r.b1, r.a2) = (hi, a);
-            }
-            if opaque && r.far == f32::NEG_INFINITY {
-                r.far = hi;
-            }
-            (lo, hi, opaque) = (a, b, o);
-        }
-        let _ = lo;
-        if r.b1.is_nan() {
-            r.b1 = hi;
-        }
-        if opaque && r.far == f32::NEG_INFINITY {
-            r.far = hi;
-        }
-        runs[pixel as usize] = r;
-        k = end;
-    }
-    runs
-}
-
-/// The 2 x 2 block bounds of a raster: its first run and where the next begins over the four
-/// pixels (near 0 where one is off the map), far where all four are covered; and near over
-/// the pixels of each block on the map (for the pyramid that picks regions: a border block's
-/// 0 would make every region reaching it reach to the light).
-fn blocks(r: &Raster, runs: &[Runs], res: usize) -> Blocks {
-    let n = res * res;
-    let mut b = Blocks {
-        near2: vec![0.0; n],
-        end2: vec![0.0; n],
-        next2: vec![0.0; n],
-        far2: vec![f32::NAN; n],
-        near_on_map: vec![f32::INFINITY; n],
-    };
-    for j in 0..res {
-        for i in 0..res {
-            let ks = [(i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)];
-            let on_map: Vec<usize> =
-                ks.iter().filter(|(a, b)| *a < res && *b < res).map(|(a, b)| b * res + a).collect();
-            let k = j * res + i;
-            b.near_on_map[k] = on_map.iter().map(|&p| r.near[p]).fold(f32::INFINITY, f32::min);
-            if on_map.len() < 4 {
-                continue;
-            }
-            // The union of the four pixels' first runs and everything from their next runs on.
-            let mut iv: Vec<(f32, f32)> = on_map
-                .iter()
-                .flat_map(|&p| [(runs[p].a1, runs[p].b1), (runs[p].a2, f32::INFINITY)])
-                .collect();
-            iv.sort_by(|x, y| x.0.total_cmp(&y.0));
-            let (a1, mut b1) = iv[0];
-            let mut a2 = f32::INFINITY;
-            for &(a, e) in &iv[1..] {
-                if a <= b1 {
-                    b1 = b1.max(e);
-                } else {
-                    a2 = a;
-                    break;
-                }
-            }
-            (b.near2[k], b.end2[k], b.next2[k]) = (a1, b1, a2);
-            if on_map.iter().all(|&p| r.flags[p] == OPAQUE) {
-                b.far2[k] = on_map.iter().map(|&p| runs[p].far).fold(f32::NEG_INFINITY, f32::max);
-            }
-            // One opaque triangle over the whole block is a cover of its own, whatever other
-            // geometry's edges do there; the nearer of the two ends counts.
-            let id = r.cover[on_map[0]].0;
-            if id != NO_COVER.0 && on_map.iter().all(|&p| r.cover[p].0 == id) {
-                let far = on_map.iter().map(|&p| r.cover[p].1).fold(f32::NEG_INFINITY, f32::max);
-                if b.far2[k].is_nan() || far < b.far2[k] {
-                    b.far2[k] = far;
-                }
-            }
-        }
-    }
-    b
-}
-
-/// [`blocks`]' arrays.
-struct Blocks {
-    near2: Vec<f32>,
-    end2: Vec<f32>,
-    next2: Vec<f32>,
-    far2: Vec<f32>,
-    near_on_map: Vec<f32>,
 }
 
 impl DepthBounds {
