@@ -135,10 +135,10 @@ fn a_key_that_does_not_apply_to_the_reading_is_an_error() {
             assert_eq!(error_key(&text), format!("shadows.{t}.slab_thickness"));
         }
     }
-    // The exact reading (the default) reads none of the published reading's keys.
+    // The exact reading reads none of the published reading's keys.
     for k in PUBLISHED_ONLY {
         let text = format!(
-            "[edge_table]\n{k} = {}",
+            "[edge_table]\nreading = \"exact\"\n{k} = {}",
             if *k == "heightfield" || *k == "blend" { "\"nearest\"" } else { "1.0" }
         );
         let text = if *k == "heightfield" { text.replace("nearest", "plates") } else { text };
@@ -151,6 +151,22 @@ fn a_key_that_does_not_apply_to_the_reading_is_an_error() {
     );
     shadows("[edge_table]\npreset = \"paper\"\nheightfield = \"plates\"\nslab_thickness = 1.0").unwrap();
     assert_eq!(error_key("[pcss]\nslab_thickness = 1.0"), "shadows.pcss.slab_thickness");
+}
+
+/// Without `reading`, a table that sets a published-only key reads as published: scene files
+/// written before the exact reading (the contract's example among them) keep their meaning.
+#[test]
+fn published_keys_without_a_reading_keep_the_published_reading() {
+    let p = Path::new("s.toml");
+    let parse = |text: &str| parse_method::<EdgeTableParams>(&table(text), p, "shadows.edge_table").unwrap();
+    let c = parse("depth_map = 256\ngrid = [4, 4, 1]\nblend = \"trilinear\"");
+    assert_eq!((c.reading, c.blend, c.grid), (Reading::Published, Blend::Trilinear, [4, 4, 1]));
+    assert_eq!(parse("grid = [4, 4, 1]").reading, Reading::Exact);
+    assert_eq!(parse("reading = \"published\"").reading, Reading::Published);
+    assert_eq!(
+        error_key("[edge_table]\nreading = \"exact\"\nblend = \"trilinear\""),
+        "shadows.edge_table.blend"
+    );
 }
 
 #[test]

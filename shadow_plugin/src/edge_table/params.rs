@@ -151,11 +151,18 @@ impl MethodParams for EdgeTableParams {
                 v.clone().try_into().map_err(|e: toml::de::Error| KeyError::new("preset", e.message()))?
             }
         };
-        Ok(match preset {
+        let mut base = match preset {
             Preset::Paper => Self::paper(),
             Preset::Balanced => Self::balanced(),
             Preset::Fine => Self::fine(),
-        })
+        };
+        // A table that sets the published reading's keys and no `reading` means that reading:
+        // scene files written before the exact reading (the contract's example sets `blend`)
+        // keep their meaning. With `reading = "exact"` those keys are errors.
+        if !table.contains_key("reading") && PUBLISHED_ONLY.iter().any(|k| table.contains_key(*k)) {
+            base.reading = Reading::Published;
+        }
+        Ok(base)
     }
 
     fn keep_code_only(&mut self, base: &Self) {
