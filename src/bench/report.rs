@@ -35,7 +35,7 @@ pub struct Row {
     pub traced_ray_share: f64,
     /// Edge-table lookups per shadow query.
     pub lookups_per_query: f64,
-    /// shadow_prepare over the shadow cost.
+    /// shadow_prepare over the shadow cost, in [0, 1] (1 where the cost is within the noise).
     pub prepare_share: f64,
     #[serde(flatten)]
     pub errors: Errors,

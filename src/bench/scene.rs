@@ -270,7 +270,15 @@ fn row(base: &Baseline, s: &Setting, run: &Run) -> Row {
         fallbacks: counter("fallbacks"),
         traced_ray_share: rays as f64 / (queries * f64::from(s.samples)),
         lookups_per_query: counter("edge_lookups") as f64 / queries,
-        prepare_share: if cost > 0.0 { prep / cost } else { f64::NAN },
+        // Clamped to [0, 1]: at tiny sizes the render above `none` can be lost in the noise
+        // (a cost at or below the prepare alone).
+        prepare_share: if cost > 0.0 {
+            (prep / cost).clamp(0.0, 1.0)
+        } else if prep > 0.0 {
+            1.0
+        } else {
+            0.0
+        },
         errors,
     }
 }
