@@ -22,7 +22,7 @@
 
 use super::mask::{ExactQuery, Mask};
 use crate::bits::{self, MAX_WORDS};
-use crate::depth_map::{DepthBounds, DepthMap};
+use crate::depth_map::{DepthBounds, DepthMap, MapPoint};
 use crate::march::region_reach;
 use glam::{Vec2, Vec3};
 use renderer::ray_origin::{gamma, offset_origin, shadow_ray_from};
@@ -167,21 +167,24 @@ impl ExactMap {
         (z * (1.0 - STOP_MARGIN)).max(self.bounds.z_clip)
     }
 
+    /// Where a world point falls on the map (None off it, or behind the light's plane).
+    #[inline]
+    pub fn locate(&self, p: Vec3) -> Option<MapPoint> {
+        let p = self.near.frame.light_from_world(p);
+        self.near.locate(p).filter(|mp| self.near.contains(mp.pixel, mp.pixel))
+    }
+
     /// The `quantile` of w = 1/z_stop - 1/pz over the receivers on the map: how far (in
     /// depth-independent units) the masks must march for that share of them.
     pub fn stop_reach_quantile(&self, visible: &[renderer::VisiblePoint], quantile: f64) -> f32 {
         use rayon::prelude::*;
-        // A quantile needs no more than a few thousand points (an estimate: points needing
-        // more only hand more to the far field); every k-th, in order, is deterministic.
-        let stride = visible.len().div_ceil(QUANTILE_POINTS).max(1);
+        // `visible` is prepare's subsample (at most QUANTILE_POINTS): an estimate suffices.
         let mut needed: Vec<f32> = visible
             .par_iter()
-            .step_by(stride)
             .filter_map(|v| {
-                let p = self.near.frame.light_from_world(v.p);
-                let mp = self.near.locate(p).filter(|mp| self.near.contains(mp.pixel, mp.pixel))?;
-                let z_stop = self.stop_depth(mp.pixel, p.z).min(self.cut_depth(mp.pixel, p.z)).min(p.z);
-                let w = 1.0 / z_stop - 1.0 / p.z;
+                let mp = self.locate(v.p)?;
+                let z_stop = self.stop_depth(mp.pixel, mp.z).min(self.cut_depth(mp.pixel, mp.z)).min(mp.z);
+                let w = 1.0 / z_stop - 1.0 / mp.z;
                 w.is_finite().then_some(w.max(0.0))
             })
             .collect();
@@ -280,6 +283,7 @@ impl ExactMap {
         scene: &Scene,
         q: &ShadowQuery,
         m: &ExactMask,
+        mp: Option<MapPoint>,
         traced_only: bool,
         stats: &mut ExactStats,
     ) -> Option<f32> {
@@ -303,7 +307,7 @@ impl ExactMap {
         let clear = &mut clear[..words];
         let mut split = Split::default();
         if !traced_only {
-            split = self.classify(scene, q, m, origin, clear, blocked, stats);
+            split = self.classify(scene, q, m, mp, origin, clear, blocked, stats);
             for k in 0..words {
                 decided[k] = (clear[k] | blocked[k]) & above[k];
             }
@@ -356,7 +360,13 @@ impl ExactMap {
 
     /// Each sample's verdict before tracing (tests): Some(true) clear, Some(false) blocked,
     /// None undecided.
-    pub fn verdicts(&self, scene: &Scene, q: &ShadowQuery, m: &ExactMask) -> Vec<([f32; 2], Option<bool>)> {
+    pub fn verdicts(
+        &self,
+        scene: &Scene,
+        q: &ShadowQuery,
+        m: &ExactMask,
+        mp: MapPoint,
+    ) -> Vec<([f32; 2], Option<bool>)> {
         let words = bits::words(m.mask.samples.len());
         let (mut clear, mut blocked) = ([0u64; MAX_WORDS], [0u64; MAX_WORDS]);
         let origin = offset_origin(q.p, q.p_error, q.n_geom, q.n_geom);
@@ -364,6 +374,7 @@ impl ExactMap {
             scene,
             q,
             m,
+            Some(mp),
             origin,
             &mut clear[..words],
             &mut blocked[..words],
@@ -391,6 +402,7 @@ impl ExactMap {
         scene: &Scene,
         q: &ShadowQuery,
         m: &ExactMask,
+        mp: Option<MapPoint>,
         origin: Vec3,
         clear: &mut [u64],
         blocked: &mut [u64],
@@ -398,11 +410,9 @@ impl ExactMap {
     ) -> Split {
         let words = clear.len();
         let mut split = Split::default();
-        let p = self.near.frame.light_from_world(q.p);
         // Off the map (or behind the light's plane): nothing is decided.
-        let Some(mp) = self.near.locate(p).filter(|mp| self.near.contains(mp.pixel, mp.pixel)) else {
-            return split;
-        };
+        let Some(mp) = mp else { return split };
+        let p = mp;
         let z_cut = self.cut_depth(mp.pixel, p.z).min(p.z);
         let z_stop = self.stop_depth(mp.pixel, p.z).min(z_cut);
         let eq =

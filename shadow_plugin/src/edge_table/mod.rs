@@ -378,13 +378,12 @@ impl EdgeTable {
                 return 1.0;
             }
         }
-        let p = map.near.frame.light_from_world(q.p);
-        let located = map.near.locate(p).filter(|mp| map.near.contains(mp.pixel, mp.pixel));
+        let located = map.locate(q.p);
         let (offset, z) = match located {
-            Some(mp) => (mp.offset, p.z),
+            Some(mp) => (mp.offset, mp.z),
             None => {
                 c.points_off_map.fetch_add(1, Ordering::Relaxed);
-                (Vec2::ZERO, p.z.max(0.0))
+                (Vec2::ZERO, map.near.frame.light_from_world(q.p).z.max(0.0))
             }
         };
         let mut chosen = [(0usize, [0i32; 2], 0.0f32); 8];
@@ -393,7 +392,7 @@ impl EdgeTable {
         let mut stats = ExactStats::default();
         // Where the horizon leaves the mask too few samples, traced's own (warped onto the part
         // above the horizon, all N counting) answers: the same traced rays either way.
-        let Some(v) = map.visibility(scene, q, &masks[m as usize], traced_only, &mut stats) else {
+        let Some(v) = map.visibility(scene, q, &masks[m as usize], located, traced_only, &mut stats) else {
             c.points_horizon_traced.fetch_add(1, Ordering::Relaxed);
             return self.fallback.trace(scene, q);
         };
@@ -426,12 +425,11 @@ impl EdgeTable {
     #[doc(hidden)]
     pub fn classify_rays(&self, scene: &Scene, q: &ShadowQuery) -> Option<Vec<([f32; 2], Option<bool>)>> {
         let Some(Prepared::Exact { map, masks, grid }) = &self.state else { return None };
-        let p = map.near.frame.light_from_world(q.p);
-        let mp = map.near.locate(p).filter(|mp| map.near.contains(mp.pixel, mp.pixel))?;
+        let mp = map.locate(q.p)?;
         let mut chosen = [(0usize, [0i32; 2], 0.0f32); 8];
-        grid.select(mp.offset, p.z, &mut chosen);
+        grid.select(mp.offset, mp.z, &mut chosen);
         let m = &masks[grid.mask(chosen[0].0).0 as usize];
-        Some(map.verdicts(scene, q, m))
+        Some(map.verdicts(scene, q, m, mp))
     }
 }
 

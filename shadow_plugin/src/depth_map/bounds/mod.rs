@@ -62,16 +62,13 @@ pub struct DepthBounds {
     /// begins (+inf: none); between them is free space. 0 where the block leaves the map.
     pub end2: Vec<f32>,
     pub next2: Vec<f32>,
-    /// Per 2 x 2 block: the nearest depth of its pixels on the map (what the pyramid holds).
-    pub near_on_map: Vec<f32>,
     /// Per 2 x 2 block: the deepest opaque depth where the whole block is covered, else NaN
     /// (never compares true).
     pub far2: Vec<f32>,
     /// The depth under which the map holds no geometry (nearer parts of triangles are not
     /// rasterized: rays there are another test's business).
     pub z_clip: f32,
-    /// Triangles rasterized, open edges found (for the counters).
-    pub triangles: u64,
+    /// Open edges found (for the counters).
     pub open_edges: u64,
 }
 
@@ -285,7 +282,9 @@ impl Grid {
 impl DepthBounds {
     /// Rasterizes every triangle of `scene` into a `res` x `res` map over the light frame
     /// `frame` (lower image-plane corner `origin`, pixel pitch `pitch`), down to depth
-    /// `z_clip`.
+    /// `z_clip`; beside the bounds, per 2 x 2 block the nearest depth of its pixels on the map
+    /// (what the near map's pyramid holds: a border block's 0 would make every region
+    /// reaching it reach to the light).
     pub fn build(
         scene: &Scene,
         frame: &LightFrame,
@@ -294,7 +293,7 @@ impl DepthBounds {
         res: u32,
         z_clip: f32,
         z_casters: f32,
-    ) -> Self {
+    ) -> (Self, Vec<f32>) {
         let n = (res * res) as usize;
         let slack = gamma(64) * (scene.coordinate_bound() + frame.origin.abs().max_element());
         // The world-space slack seen at the casters' nearest depth, in pixels.
@@ -349,54 +348,39 @@ impl DepthBounds {
         raster.flags.iter_mut().zip(&open_flags).for_each(|(x, y)| *x |= *y);
         let runs = pixel_runs(std::mem::take(&mut raster.ranges), n);
         let Blocks { near2, end2, next2, far2, near_on_map } = blocks(&raster, &runs, res as usize);
-        DepthBounds {
-            resolution: res,
-            near2,
-            end2,
-            next2,
-            far2,
-            near_on_map,
-            z_clip,
-            triangles: light_tris.len() as u64,
-            open_edges: open.len() as u64,
-        }
+        let bounds =
+            DepthBounds { resolution: res, near2, end2, next2, far2, z_clip, open_edges: open.len() as u64 };
+        (bounds, near_on_map)
+    }
+
+    /// The index of the block at (i, j), None outside the map.
+    #[inline]
+    fn block(&self, i: i32, j: i32) -> Option<usize> {
+        let n = self.resolution as i32;
+        (i >= 0 && j >= 0 && i < n && j < n).then(|| (j * n + i) as usize)
     }
 
     /// The nearest depth in the block at (i, j); 0 outside the map.
     #[inline]
     pub fn near2_at(&self, i: i32, j: i32) -> f32 {
-        let n = self.resolution as i32;
-        if i < 0 || j < 0 || i >= n || j >= n {
-            return 0.0;
-        }
-        self.near2[(j * n + i) as usize]
+        self.block(i, j).map_or(0.0, |k| self.near2[k])
     }
 
     /// The first run's end and the next run's start in the block at (i, j); (0, 0) outside
     /// the map.
     #[inline]
     pub fn gap2_at(&self, i: i32, j: i32) -> (f32, f32) {
-        let n = self.resolution as i32;
-        if i < 0 || j < 0 || i >= n || j >= n {
-            return (0.0, 0.0);
-        }
-        let k = (j * n + i) as usize;
-        (self.end2[k], self.next2[k])
+        self.block(i, j).map_or((0.0, 0.0), |k| (self.end2[k], self.next2[k]))
     }
 
     /// The deepest opaque depth of the covered block at (i, j); NaN where not covered.
     #[inline]
     pub fn far2_at(&self, i: i32, j: i32) -> f32 {
-        let n = self.resolution as i32;
-        if i < 0 || j < 0 || i >= n || j >= n {
-            return f32::NAN;
-        }
-        self.far2[(j * n + i) as usize]
+        self.block(i, j).map_or(f32::NAN, |k| self.far2[k])
     }
 
     pub fn bytes(&self) -> u64 {
-        ((self.near2.len() + self.end2.len() + self.next2.len() + self.far2.len() + self.near_on_map.len())
-            * 4) as u64
+        ((self.near2.len() + self.end2.len() + self.next2.len() + self.far2.len()) * 4) as u64
     }
 }
 
@@ -421,8 +405,9 @@ impl DepthBounds {
         } else {
             1e-6 * scene.coordinate_bound().max(1e-30)
         };
-        let bounds = DepthBounds::build(scene, &frame, origin, pitch, res, z_clip, caster_z_near);
-        let near = super::DepthMap::from_depths(frame, origin, pitch, res, bounds.near_on_map.clone());
+        let (bounds, near_on_map) =
+            DepthBounds::build(scene, &frame, origin, pitch, res, z_clip, caster_z_near);
+        let near = super::DepthMap::from_depths(frame, origin, pitch, res, near_on_map);
         (bounds, near)
     }
 }
