@@ -3,11 +3,15 @@
 
 pub mod bench;
 pub mod config;
+pub mod heat;
 pub mod memory;
 pub mod methods;
+pub mod profile;
+pub mod progress;
 pub mod report;
 
 use crate::config::ShadowsConfig;
+use crate::progress::PhaseProgress;
 use crate::report::{RunReport, Timings};
 use renderer::output::StagedFiles;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod, render};
@@ -46,9 +50,16 @@ pub struct RenderArgs {
     /// Output PNG; the EXR and JSON report go beside it. Default: out/<scene-stem>.png.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Also write PATH.visibility.<k>.exr per light k.
+    /// Also write each light k's visibility: PATH.visibility.<k>.exr (f32, -1 where nothing
+    /// is hit) and PATH.visibility.<k>.png (grey, 8-bit sRGB; misses in blue).
     #[arg(long)]
     pub aov: bool,
+    /// Also write where shading time goes: PATH.cost.exr (per pixel: shading time, rays,
+    /// shafts, lookups), PATH.cost.png (a heat map of the time, log scale) and
+    /// PATH.trace.json (the run's phases as a Chrome trace: open it in https://ui.perfetto.dev
+    /// or chrome://tracing). Timing outputs differ from run to run; the others do not.
+    #[arg(long)]
+    pub profile: bool,
     /// Worker threads (default: all cores). The output bytes do not depend on it.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     pub threads: Option<u32>,
@@ -79,24 +90,55 @@ pub type CliError = SceneError;
 pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     let t_total = Instant::now();
     let plan = plan_render(args)?;
-    let (threads, pool) = thread_pool(args.threads, &plan.scene_path)?;
+    let trace = args.profile.then(profile::Trace::start);
+    let (threads, pool) = thread_pool_traced(args.threads, &plan.scene_path, trace.as_ref())?;
+    let progress = PhaseProgress::new(args.quiet);
 
-    pool.install(|| {
+    let outcome = pool.install(|| {
+        progress.phase("loading the scene and building the BVH", 0);
         let scene = Scene::load(&plan.file, &plan.scene_path)?;
-        let frame = render_frame(&plan, &scene, args.seed, args.quiet)?;
+        let loaded = t_total.elapsed();
+        let frame = render_frame(&plan, &scene, args.seed, args.profile, &progress)?;
 
         // Outputs: all staged, then committed together.
+        progress.phase("writing the outputs", 0);
+        let t_write = Instant::now();
         let mut staged = StagedFiles::default();
-        let mut outputs = stage_images(&plan, &frame, args.aov, &mut staged)?;
+        let mut outputs = tracing::info_span!("write").in_scope(|| {
+            let mut outputs = stage_images(&plan, &frame, args.aov, &mut staged)?;
+            if let Some(costs) = &frame.costs {
+                outputs.extend(stage_profile(&plan, &frame, costs, &mut staged)?);
+            }
+            Ok::<_, CliError>(outputs)
+        })?;
+        let write = t_write.elapsed();
         let json_path = plan.png.with_extension("json");
         outputs.push(json_path.clone());
-        let report = build_report(&plan, args.seed, threads, &scene, &frame, &outputs, t_total);
-        let json = serde_json::to_vec_pretty(&report).expect("the report serialises");
-        let io = |e: String| SceneError::new(&plan.png, "--out", e);
-        staged.bytes(&json_path, &json).map_err(io)?;
-        staged.commit().map_err(io)?;
-        Ok(RenderOutcome { report, png: plan.png.clone() })
-    })
+        let phases = Phases { loaded, write, total: t_total.elapsed() };
+        Ok::<_, CliError>((scene, frame, staged, outputs, json_path, phases))
+    });
+    progress.finish();
+    let (scene, frame, mut staged, mut outputs, json_path, phases) = outcome?;
+    drop(pool);
+    let io = |e: String| SceneError::new(&plan.png, "--out", e);
+    if let Some(trace) = trace {
+        let path = plan.png.with_extension("trace.json");
+        staged.bytes(&path, &trace.finish()).map_err(io)?;
+        outputs.insert(outputs.len() - 1, path);
+    }
+    let report = build_report(&plan, args.seed, threads, &scene, &frame, &outputs, phases);
+    let json = serde_json::to_vec_pretty(&report).expect("the report serialises");
+    staged.bytes(&json_path, &json).map_err(io)?;
+    staged.commit().map_err(io)?;
+    Ok(RenderOutcome { report, png: plan.png.clone() })
+}
+
+/// The phases the command line times itself: everything up to the loaded scene (reading
+/// the scene file, the pool, the glTF files, the BVH), writing the outputs, and the whole.
+struct Phases {
+    loaded: std::time::Duration,
+    write: std::time::Duration,
+    total: std::time::Duration,
 }
 
 /// What to render and where: the scene file with the command line's overrides applied, all
@@ -193,18 +235,27 @@ fn png_path(args: &RenderArgs, scene_path: &Path) -> Result<PathBuf, CliError> {
     Ok(png)
 }
 
-/// Renders `scene` with one of `plan`'s shadow methods per light, showing a progress bar
-/// unless `quiet`.
-fn render_frame(plan: &RenderPlan, scene: &Scene, seed: u64, quiet: bool) -> Result<Frame, CliError> {
+/// Renders `scene` with one of `plan`'s shadow methods per light, each phase shown on
+/// `progress`.
+fn render_frame(
+    plan: &RenderPlan,
+    scene: &Scene,
+    seed: u64,
+    profile: bool,
+    progress: &PhaseProgress,
+) -> Result<Frame, CliError> {
     let mut methods: Vec<_> = scene.lights.iter().map(|_| plan.shadows.build()).collect();
     let mask_budget_bytes = memory::mask_budget_bytes();
-    let settings =
-        RenderSettings { width: plan.width, height: plan.height, spp: plan.spp, seed, mask_budget_bytes };
-    let bar = progress_bar(plan.height as u64, quiet);
-    let frame = render(scene, &mut methods, &settings, &|n| bar.inc(n))
-        .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))?;
-    bar.finish_and_clear();
-    Ok(frame)
+    let settings = RenderSettings {
+        width: plan.width,
+        height: plan.height,
+        spp: plan.spp,
+        seed,
+        mask_budget_bytes,
+        profile,
+    };
+    render(scene, &mut methods, &settings, &|p| progress.report(p))
+        .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))
 }
 
 /// Stages the PNG, the EXR beside it and, with `aov`, each light's visibility EXR, after
@@ -236,9 +287,39 @@ fn stage_images(
             let rgb: Vec<glam::Vec3> = vis.iter().map(|&v| glam::Vec3::splat(v)).collect();
             staged.exr(&path, width, height, &rgb).map_err(io)?;
             outputs.push(path);
+            // The same as grey for any image viewer: visibility 0..1 as linear grey (so the
+            // PNG's sRGB encoding shows it as a viewer shows radiance), misses in blue.
+            let path = png.with_extension(format!("visibility.{k}.png"));
+            let grey: Vec<glam::Vec3> = vis
+                .iter()
+                .map(|&v| if v < 0.0 { glam::Vec3::new(0.0, 0.05, 0.35) } else { glam::Vec3::splat(v) })
+                .collect();
+            staged.png(&path, width, height, &grey).map_err(io)?;
+            outputs.push(path);
         }
     }
     Ok(outputs)
+}
+
+/// Stages `--profile`'s images: the cost EXR and its heat map. Returns their paths.
+fn stage_profile(
+    plan: &RenderPlan,
+    frame: &Frame,
+    costs: &[renderer::profile::PixelCost],
+    staged: &mut StagedFiles,
+) -> Result<Vec<PathBuf>, CliError> {
+    let (exr, png) = (plan.png.with_extension("cost.exr"), plan.png.with_extension("cost.png"));
+    let missed: Vec<bool> = match frame.visibility.first() {
+        Some(v) => v.iter().map(|&v| v < 0.0).collect(),
+        None => vec![false; costs.len()],
+    };
+    let exr_bytes =
+        profile::cost_exr(plan.width, plan.height, costs).map_err(|e| SceneError::new(&exr, "", e))?;
+    staged.bytes(&exr, &exr_bytes).map_err(|e| SceneError::new(&exr, "--out", e))?;
+    let png_bytes = profile::cost_png(plan.width, plan.height, costs, &missed)
+        .map_err(|e| SceneError::new(&png, "", e))?;
+    staged.bytes(&png, &png_bytes).map_err(|e| SceneError::new(&png, "--out", e))?;
+    Ok(vec![exr, png])
 }
 
 /// The run's report; `outputs` lists every file written (the report last), `t_total` is
@@ -250,7 +331,7 @@ fn build_report(
     scene: &Scene,
     frame: &Frame,
     outputs: &[PathBuf],
-    t_total: Instant,
+    phases: Phases,
 ) -> RunReport {
     RunReport {
         scene: plan.scene_path.display().to_string(),
@@ -265,12 +346,17 @@ fn build_report(
         triangles: scene.stats.triangles,
         degenerate_triangles: scene.stats.degenerate_triangles,
         timings_s: Timings {
-            load: scene.stats.load.as_secs_f64(),
+            // Everything before the BVH build counts as loading (the scene file, the pool,
+            // the glTF files, the f32 conversion).
+            load: (phases.loaded - scene.stats.bvh).as_secs_f64(),
             bvh: scene.stats.bvh.as_secs_f64(),
+            visible_points: frame.visible_points.as_secs_f64(),
             shadow_prepare: frame.shadow_prepare.as_secs_f64(),
             render: frame.render.as_secs_f64(),
-            total: t_total.elapsed().as_secs_f64(),
+            write: phases.write.as_secs_f64(),
+            total: phases.total.as_secs_f64(),
         },
+        profile: frame.costs.as_deref().map(report::ProfileTotals::of),
         counters: frame.counters.clone(),
         outputs: outputs.iter().map(|p| p.display().to_string()).collect(),
         warnings: scene.warnings.iter().chain(&frame.warnings).cloned().collect(),
@@ -300,29 +386,30 @@ pub fn thread_pool(
     threads: Option<u32>,
     file: &std::path::Path,
 ) -> Result<(usize, rayon::ThreadPool), CliError> {
+    thread_pool_traced(threads, file, None)
+}
+
+/// [`thread_pool`] whose threads record their spans into `trace`.
+fn thread_pool_traced(
+    threads: Option<u32>,
+    file: &std::path::Path,
+    trace: Option<&profile::Trace>,
+) -> Result<(usize, rayon::ThreadPool), CliError> {
     let threads = match threads {
         Some(n) => n as usize,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
+    let dispatch = trace.map(|t| t.dispatch.clone());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
+        .thread_name(|i| format!("worker {i}"))
+        .start_handler(move |_| {
+            if let Some(d) = &dispatch {
+                // For the thread's whole life: the pool is the run's.
+                std::mem::forget(tracing::dispatcher::set_default(d));
+            }
+        })
         .build()
         .map_err(|e| SceneError::new(file, "--threads", e.to_string()))?;
     Ok((threads, pool))
-}
-
-fn progress_bar(rows: u64, quiet: bool) -> indicatif::ProgressBar {
-    use std::io::IsTerminal;
-    if quiet || !std::io::stderr().is_terminal() {
-        return indicatif::ProgressBar::hidden();
-    }
-    let bar = indicatif::ProgressBar::new(rows);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} rendering [{bar:40}] {pos}/{len} rows, {elapsed} (eta {eta})",
-        )
-        .expect("a valid template")
-        .progress_chars("=> "),
-    );
-    bar
 }

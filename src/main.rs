@@ -53,13 +53,17 @@ fn main() -> ExitCode {
             if !args.quiet {
                 let r = &outcome.report;
                 let t = &r.timings_s;
+                // `none` casts no shadow rays: a sample count would say it does.
+                let samples =
+                    if r.method == "none" { String::new() } else { format!(" ({} samples)", r.samples) };
                 println!(
-                    "{}: {} {}x{} spp {} ({} samples), {} triangles, {} light(s), {} threads",
-                    r.scene, r.method, r.width, r.height, r.spp, r.samples, r.triangles, r.lights, r.threads
+                    "{}: {} {}x{} spp {}{samples}, {} triangles, {} light(s), {} threads",
+                    r.scene, r.method, r.width, r.height, r.spp, r.triangles, r.lights, r.threads
                 );
                 println!(
-                    "time: load {:.3}s, bvh {:.3}s, shadow_prepare {:.3}s, render {:.3}s, total {:.3}s",
-                    t.load, t.bvh, t.shadow_prepare, t.render, t.total
+                    "time: load {:.3}s, bvh {:.3}s, visible points {:.3}s, shadow_prepare {:.3}s, render {:.3}s, \
+                     write {:.3}s, total {:.3}s",
+                    t.load, t.bvh, t.visible_points, t.shadow_prepare, t.render, t.write, t.total
                 );
                 println!("wrote {}", r.outputs.join(", "));
             }

@@ -3,13 +3,39 @@
 use serde::Serialize;
 use std::collections::BTreeMap;
 
+/// Wall time of each phase, in seconds; the phases before `total` add up to it (to within
+/// the report's own serialisation and the final renames).
 #[derive(Debug, Clone, Serialize)]
 pub struct Timings {
+    /// Reading the scene file and the glTF files, to render space (everything before the BVH).
     pub load: f64,
     pub bvh: f64,
+    /// Gathering the primary hits into the points every method's `prepare` reads.
+    pub visible_points: f64,
+    /// Every light's `prepare` (depth maps, masks).
     pub shadow_prepare: f64,
+    /// The pixel loop: primary rays, shading and shadow queries.
     pub render: f64,
+    /// Encoding and writing the outputs (the report itself excepted).
+    pub write: f64,
     pub total: f64,
+}
+
+/// `--profile`'s sums over the image: the time of the pixels' shading (summed over threads,
+/// so about `render` minus the primary rays, times the threads) and the shadow work.
+#[derive(Debug, Clone, Serialize)]
+pub struct ProfileTotals {
+    pub shading_s: f64,
+    pub rays: u64,
+    pub shafts: u64,
+    pub lookups: u64,
+}
+
+impl ProfileTotals {
+    pub fn of(costs: &[renderer::profile::PixelCost]) -> Self {
+        let (shading_s, w) = renderer::profile::totals(costs);
+        ProfileTotals { shading_s, rays: w.rays, shafts: w.shafts, lookups: w.lookups }
+    }
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -27,6 +53,9 @@ pub struct RunReport {
     /// Triangles dropped at load, for any reason (`warnings` says which).
     pub degenerate_triangles: u64,
     pub timings_s: Timings,
+    /// With `--profile` only.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub profile: Option<ProfileTotals>,
     pub counters: BTreeMap<String, u64>,
     /// Files written, relative to the working directory as given.
     pub outputs: Vec<String>,

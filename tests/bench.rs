@@ -133,10 +133,43 @@ fn check_outputs(out: &Path, scenes: &[&str]) -> serde_json::Value {
     for scene in scenes {
         assert!(links.iter().any(|l| l == &format!("{scene}/plot.png")), "{scene}: no plot");
         assert!(links.iter().any(|l| l == &format!("{scene}/truth.png")), "{scene}: no truth image");
-        assert!(
-            links.iter().filter(|l| l.starts_with(&format!("{scene}/")) && l.ends_with(".error.png")).count()
-                >= 4
-        );
+        for kind in [".error.png", ".cost.png"] {
+            let maps: Vec<&String> =
+                links.iter().filter(|l| l.starts_with(&format!("{scene}/")) && l.ends_with(kind)).collect();
+            assert!(maps.len() >= 4, "{scene}: {kind} maps {maps:?}");
+            // Readable: at least 320 pixels wide whatever the bench's image size.
+            for m in maps {
+                assert!(image::open(out.join(m)).unwrap().width() >= 320, "{m}");
+            }
+        }
+    }
+    // Per scene and family, the cost split: parts non-negative, adding up to the best
+    // setting's shadow cost (its row's), prepare equal to the row's where the cost is above
+    // it (at tiny sizes a cost can be lost in the noise).
+    for s in json["scenes"].as_array().unwrap() {
+        for b in s["best"].as_array().unwrap() {
+            let split = &b["cost_split_s"];
+            let parts: Vec<f64> = ["prepare", "lookups", "rays", "shafts", "rest"]
+                .iter()
+                .map(|k| split[k].as_f64().unwrap_or_else(|| panic!("{k} in {b}")))
+                .collect();
+            assert!(parts.iter().all(|&p| p >= 0.0), "{b}");
+            let row = json["rows"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|r| r["scene"] == s["scene"] && r["setting"] == b["label"])
+                .unwrap();
+            let cost = row["shadow_cost_s"].as_f64().unwrap();
+            if cost > row["shadow_prepare_s"].as_f64().unwrap() {
+                let sum: f64 = parts.iter().sum();
+                assert!((sum - cost).abs() < 1e-9, "{b}: {sum} against {cost}");
+                assert_eq!(parts[0], row["shadow_prepare_s"].as_f64().unwrap(), "{b}");
+            }
+            if b["family"] == "traced" {
+                assert_eq!(parts[1], 0.0, "traced reads no tables: {b}");
+            }
+        }
     }
     for l in &links {
         let p = out.join(l);

@@ -60,7 +60,7 @@ fn same_bytes_with_one_and_two_threads() {
             penumbra(&["render", "s.toml", "--threads", threads, "--aov", "--spp", "2", "--out", &out], &dir);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
-    for file in ["img.png", "img.exr", "img.visibility.0.exr"] {
+    for file in ["img.png", "img.exr", "img.visibility.0.exr", "img.visibility.0.png"] {
         let a = std::fs::read(dir.join("t1").join(file)).unwrap();
         let b = std::fs::read(dir.join("t2").join(file)).unwrap();
         assert!(a == b, "{file} differs between 1 and 2 threads");
@@ -71,9 +71,14 @@ fn same_bytes_with_one_and_two_threads() {
     assert_eq!(report["method"], "traced");
     assert_eq!(report["samples"], 16);
     assert_eq!(report["spp"], 2);
-    for key in ["load", "bvh", "shadow_prepare", "render", "total"] {
-        assert!(report["timings_s"][key].as_f64().unwrap() >= 0.0, "{key}");
+    let phases = ["load", "bvh", "visible_points", "shadow_prepare", "render", "write"];
+    let t = |key: &str| report["timings_s"][key].as_f64().unwrap_or_else(|| panic!("{key}"));
+    for key in phases {
+        assert!(t(key) >= 0.0, "{key}");
     }
+    // The phases add up to the whole (to 1%, or 2 ms on a run this short).
+    let sum: f64 = phases.iter().map(|k| t(k)).sum();
+    assert!((t("total") - sum).abs() <= (0.01 * t("total")).max(0.002), "{sum} of {}", t("total"));
     // 48 x 32 pixels x 2 samples, every primary ray hits the floor.
     assert_eq!(report["counters"]["shading_points"], 48 * 32 * 2);
     let _ = std::fs::remove_dir_all(&dir);
@@ -104,6 +109,19 @@ fn visibility_aov_is_minus_one_on_misses_and_in_unit_range_on_hits() {
     // The top corners see the sky; the centre sees the floor and the card's shadow.
     assert_eq!(vis.get_pixel(0, 0).0[0], -1.0);
     assert!(misses > 0 && hits > 0 && shadowed > 0, "{misses} {hits} {shadowed}");
+    // The grey PNG: the visibility as linear grey, sRGB-encoded (to one 8-bit step), misses
+    // in the marked blue.
+    let grey = image::open(dir.join("a.visibility.0.png")).unwrap().into_rgb8();
+    for (p, g) in vis.pixels().zip(grey.pixels()) {
+        let v = p.0[0];
+        if v == -1.0 {
+            assert!(g.0[2] > g.0[0] && g.0[0] == 0, "a miss is blue: {:?}", g.0);
+        } else {
+            assert!(g.0[0] == g.0[1] && g.0[1] == g.0[2], "grey: {:?}", g.0);
+            let expected = renderer::output::encode_srgb8(v) as i32;
+            assert!((g.0[0] as i32 - expected).abs() <= 1, "{v} -> {:?}, expected {expected}", g.0);
+        }
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -285,5 +303,36 @@ fn masks_over_the_memory_budget_are_refused() {
     assert!(!dir.join("out").exists(), "something was written");
     let o = run("4096");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Every phase shows on a terminal: the render runs under a pseudo-terminal (`script`, from
+/// util-linux; the test says so and passes where it is missing), and stderr must name each.
+/// Without a terminal, stderr stays empty.
+#[test]
+fn progress_names_every_phase_on_a_terminal() {
+    let dir = temp_dir("pty");
+    if Command::new("script").arg("--version").output().is_err() {
+        eprintln!("no `script` here: the pseudo-terminal check is skipped");
+        return;
+    }
+    let bin = env!("CARGO_BIN_EXE_penumbra");
+    let cmd = format!("{bin} render --shadows edge_table --width 160 --height 120 --out p.png");
+    let o = Command::new("script").args(["-qec", &cmd, "/dev/null"]).current_dir(&dir).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let shown = String::from_utf8_lossy(&o.stdout);
+    for phase in [
+        "loading the scene and building the BVH",
+        "primary rays",
+        "gathering visible points",
+        "preparing the shadow method",
+        "shading",
+        "writing the outputs",
+    ] {
+        assert!(shown.contains(phase), "{phase} not shown: {shown}");
+    }
+    let piped = penumbra(&["render", "--width", "160", "--height", "120", "--out", "q.png"], &dir);
+    assert!(piped.status.success());
+    assert_eq!(String::from_utf8_lossy(&piped.stderr), "", "nothing on stderr without a terminal");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -78,7 +78,14 @@ fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
         .collect();
     names.sort();
     assert!(names.len() >= 10, "{names:?}");
-    let settings = RenderSettings { width: 64, height: 48, spp: 1, seed: 3, mask_budget_bytes: u64::MAX };
+    let settings = RenderSettings {
+        width: 64,
+        height: 48,
+        spp: 1,
+        seed: 3,
+        mask_budget_bytes: u64::MAX,
+        profile: false,
+    };
     for path in names {
         let file = SceneFile::load(&path).unwrap();
         let scene = Scene::load(&file, &path).unwrap();

@@ -17,6 +17,7 @@ pub mod output;
 pub mod precision;
 #[cfg(test)]
 mod precision_tests;
+pub mod profile;
 pub mod ray_origin;
 pub mod render;
 pub mod sampling;

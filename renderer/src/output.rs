@@ -4,7 +4,7 @@
 //! registry, so a signal handler can remove them ([`remove_staged_files`]).
 
 use glam::Vec3;
-use image::{ImageBuffer, ImageFormat, Rgb};
+use image::ImageFormat;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -48,6 +48,15 @@ pub fn encode_srgb8(linear: f32) -> u8 {
     let s = if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
     (s * 255.0 + 0.5) as u8
 }
+
+/// How every EXR is encoded: exr's fast lossless encoding (RLE, 64 x 64 tiles), with the
+/// tiles in increasing order. Its default order is "unspecified", which writes tiles as the
+/// parallel compressors finish them: the same image gave different bytes from run to run
+/// (any image of more than one tile), against the contract's same-bytes rule.
+pub const EXR_ENCODING: exr::prelude::Encoding = exr::prelude::Encoding {
+    line_order: exr::prelude::LineOrder::Increasing,
+    ..exr::prelude::Encoding::FAST_LOSSLESS
+};
 
 /// Files staged for an all-or-nothing write.
 #[derive(Debug, Default)]
@@ -113,11 +122,16 @@ impl StagedFiles {
 
     /// An RGB f32 OpenEXR. Refused if a value is not finite.
     pub fn exr(&mut self, path: &Path, width: u32, height: u32, rgb: &[Vec3]) -> Result<(), String> {
+        use exr::prelude::{Image, Layer, LayerAttributes, SpecificChannels, WritableImage};
         check_finite(rgb).map_err(|e| format!("{}: {e}", path.display()))?;
-        let data: Vec<f32> = rgb.iter().flat_map(|c| c.to_array()).collect();
-        let img: ImageBuffer<Rgb<f32>, Vec<f32>> =
-            ImageBuffer::from_raw(width, height, data).ok_or("buffer size mismatch")?;
-        self.stage(path, |out| img.write_to(out, ImageFormat::OpenExr).map_err(|e| e.to_string()))
+        assert_eq!(rgb.len(), (width * height) as usize, "an EXR of width x height pixels");
+        let w = width as usize;
+        let channels = SpecificChannels::rgb(|p: exr::math::Vec2<usize>| {
+            let c = rgb[p.y() * w + p.x()];
+            (c.x, c.y, c.z)
+        });
+        let layer = Layer::new((w, height as usize), LayerAttributes::default(), EXR_ENCODING, channels);
+        self.stage(path, |out| Image::from_layer(layer).write().to_buffered(out).map_err(|e| e.to_string()))
     }
 
     /// Any bytes (the JSON report).
@@ -125,7 +139,6 @@ impl StagedFiles {
         self.stage(path, |out| out.write_all(bytes).map_err(|e| e.to_string()))
     }
 
-    /// Renames every staged file into place.
     /// Renames every staged file into place. A destination that is a folder is refused
     /// before anything is renamed; if a rename still fails, the staged files not yet renamed
     /// are removed (by `Drop`).

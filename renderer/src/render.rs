@@ -3,6 +3,7 @@
 //! number is keyed by (seed, pixel, sample, light), so the bytes do not depend on the number
 //! of threads.
 
+use crate::profile::{PixelCost, Work};
 use crate::sampling::{Rng, strata, stream_seed};
 use crate::scene::{Scene, SurfaceHit};
 use crate::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery, VisiblePoint};
@@ -10,7 +11,6 @@ use glam::{Vec3, Vec3A};
 use obvhs::ray::Ray;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -23,7 +23,22 @@ pub struct RenderSettings {
     /// Handed to every method's `prepare` ([`PrepareContext::mask_budget_bytes`]): the most
     /// bytes of masks one light may hold. The command line reads it from the machine.
     pub mask_budget_bytes: u64,
+    /// Measure each pixel's shading time and work ([`Frame::costs`]).
+    pub profile: bool,
 }
+
+/// What [`render`] reports as it goes, for a progress display.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Progress {
+    /// A phase begins: its name, and the rows it will report (0: none, show a spinner).
+    Phase { name: &'static str, rows: u64 },
+    /// `n` more rows of the current phase are done.
+    Rows(u64),
+}
+
+/// Rows of pixels shaded as one unit of work (one span of the trace, one progress step):
+/// small enough that two threads share even a 120-row image evenly.
+pub const ROW_BAND: usize = 8;
 
 /// What a frame produces.
 #[derive(Debug, Clone)]
@@ -36,9 +51,15 @@ pub struct Frame {
     /// pixel's samples that hit; 0 where the light is below the horizon or faces away), or
     /// -1 where no primary ray hits anything.
     pub visibility: Vec<Vec<f32>>,
+    /// Gathering the primary hits into the visible points every method's `prepare` reads.
+    pub visible_points: Duration,
+    /// Every light's `prepare`.
     pub shadow_prepare: Duration,
-    /// Wall time of the pixel loop: primary rays, shading and shadow queries.
+    /// Wall time of the pixel loop: primary rays, shading and shadow queries (and the
+    /// frame's assembly: visibility layers, warnings).
     pub render: Duration,
+    /// Per pixel, with [`RenderSettings::profile`]: its shading time and shadow work.
+    pub costs: Option<Vec<PixelCost>>,
     pub counters: BTreeMap<String, u64>,
     /// One line each: what makes this image suspect (nothing hit, no light reaching what the
     /// camera sees, visible geometry f32 cannot keep precise). See [`frame_warnings`].
@@ -50,7 +71,9 @@ const TAG_PRIMARY: u64 = 1;
 const TAG_SHADOW: u64 = 2;
 
 /// Renders `scene` with one shadow method per light (`methods[k]` shadows `scene.lights[k]`).
-/// `progress` is called with the number of rows finished, from any thread.
+/// `progress` is told each phase as it begins and the rows finished, from any thread.
+/// Each phase is a `tracing` span (`primary_pass`, `visible_points`, `prepare` per light,
+/// `shading` with a `rows` span per band).
 ///
 /// # Errors
 /// The first error a method's `prepare` reports.
@@ -58,22 +81,30 @@ pub fn render(
     scene: &Scene,
     methods: &mut [Box<dyn LightShadowing>],
     settings: &RenderSettings,
-    progress: &(dyn Fn(u64) + Sync),
+    progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<Frame, ShadowError> {
     assert_eq!(methods.len(), scene.lights.len(), "one shadow method per light");
     let RenderSettings { width, height, .. } = *settings;
 
     let t_primary = Instant::now();
-    let hits = primary_hits(scene, settings);
+    progress(Progress::Phase { name: "primary rays", rows: height as u64 });
+    let hits = tracing::info_span!("primary_pass").in_scope(|| primary_hits(scene, settings, progress));
     let primary_time = t_primary.elapsed();
 
+    let t_gather = Instant::now();
+    progress(Progress::Phase { name: "gathering visible points", rows: 0 });
+    let visible = tracing::info_span!("visible_points").in_scope(|| visible_points(&hits));
+    let visible_points = t_gather.elapsed();
+
     let t_prepare = Instant::now();
-    prepare_lights(scene, methods, &hits, settings)?;
+    progress(Progress::Phase { name: "preparing the shadow method", rows: 0 });
+    prepare_lights(scene, methods, &visible, settings)?;
+    drop(visible);
     let shadow_prepare = t_prepare.elapsed();
 
     let t_shade = Instant::now();
-    let shaded = shade(scene, methods, &hits, settings, progress);
-    let render = primary_time + t_shade.elapsed();
+    progress(Progress::Phase { name: "shading", rows: height as u64 });
+    let shaded = tracing::info_span!("shading").in_scope(|| shade(scene, methods, &hits, settings, progress));
 
     let mut counters = BTreeMap::new();
     counters.insert("shading_points".to_string(), shaded.shading_points);
@@ -87,13 +118,16 @@ pub fn render(
     let visibility =
         (0..lights).map(|k| (0..w * h).map(|i| shaded.visibility[i * lights + k]).collect()).collect();
     let warnings = frame_warnings(scene, &hits, &shaded.facing, &shaded.lit);
+    let render = primary_time + t_shade.elapsed();
     Ok(Frame {
         width,
         height,
         radiance: shaded.radiance,
         visibility,
+        visible_points,
         shadow_prepare,
         render,
+        costs: shaded.costs,
         counters,
         warnings,
     })
@@ -155,7 +189,11 @@ pub fn frame_warnings(
 
 /// The primary pass: the closest hit (or none) of every sample of every pixel, at
 /// `(y * width + x) * spp + s`.
-fn primary_hits(scene: &Scene, settings: &RenderSettings) -> Vec<Option<SurfaceHit>> {
+fn primary_hits(
+    scene: &Scene,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Vec<Option<SurfaceHit>> {
     let RenderSettings { width, height, spp, seed, .. } = *settings;
     let (w, h, spp_us) = (width as usize, height as usize, spp as usize);
     let mut hits: Vec<Option<SurfaceHit>> = vec![None; w * h * spp_us];
@@ -176,20 +214,14 @@ fn primary_hits(scene: &Scene, settings: &RenderSettings) -> Vec<Option<SurfaceH
                 row[x * spp_us + s] = scene.intersect(ray);
             }
         }
+        progress(Progress::Rows(1));
     });
     hits
 }
 
-/// Prepares every light's method with what the camera sees (every primary hit).
-fn prepare_lights(
-    scene: &Scene,
-    methods: &mut [Box<dyn LightShadowing>],
-    hits: &[Option<SurfaceHit>],
-    settings: &RenderSettings,
-) -> Result<(), ShadowError> {
-    let RenderSettings { seed, mask_budget_bytes, .. } = *settings;
-    let visible: Vec<VisiblePoint> = hits
-        .iter()
+/// Every primary hit as the point `prepare` reads.
+fn visible_points(hits: &[Option<SurfaceHit>]) -> Vec<VisiblePoint> {
+    hits.iter()
         .flatten()
         .map(|hit| VisiblePoint {
             p: hit.p,
@@ -197,20 +229,31 @@ fn prepare_lights(
             n_geom: hit.n_geom,
             n_shading: hit.n_shading,
         })
-        .collect();
+        .collect()
+}
+
+/// Prepares every light's method with what the camera sees (every primary hit).
+fn prepare_lights(
+    scene: &Scene,
+    methods: &mut [Box<dyn LightShadowing>],
+    visible: &[VisiblePoint],
+    settings: &RenderSettings,
+) -> Result<(), ShadowError> {
+    let RenderSettings { seed, mask_budget_bytes, .. } = *settings;
     // The budget was read before the frame began: what the primary hits and the lights
     // prepared so far hold is no longer free.
-    let mut held = std::mem::size_of_val(visible.as_slice()) as u64;
+    let mut held = std::mem::size_of_val(visible) as u64;
     for (k, method) in methods.iter_mut().enumerate() {
         let ctx = PrepareContext {
             scene,
             light: &scene.lights[k],
             light_index: k,
-            visible: &visible,
+            visible,
             seed,
             mask_budget_bytes: mask_budget_bytes.saturating_sub(held),
         };
-        method.prepare(&ctx)?;
+        tracing::info_span!("prepare", light = k, method = method.name())
+            .in_scope(|| method.prepare(&ctx))?;
         held += method.memory_bytes();
     }
     Ok(())
@@ -222,6 +265,7 @@ struct Shaded {
     radiance: Vec<Vec3>,
     /// Per pixel, then per light: as `Frame::visibility`, interleaved.
     visibility: Vec<f32>,
+    costs: Option<Vec<PixelCost>>,
     shading_points: u64,
     shadow_queries: u64,
     /// Per light: shading points with non-zero irradiance from it.
@@ -230,81 +274,117 @@ struct Shaded {
     lit: Vec<u64>,
 }
 
+/// A band's tallies: shading points, shadow queries, and per light the points facing it and
+/// those it reaches.
+struct Tally {
+    points: u64,
+    queries: u64,
+    facing: Vec<u64>,
+    lit: Vec<u64>,
+}
+
 /// The shading pass: irradiance times visibility at every primary hit, from every light,
-/// averaged over each pixel's samples. Calls `progress(1)` per row.
+/// averaged over each pixel's samples. Bands of `ROW_BAND` rows, each a `rows` span;
+/// `progress` hears of every band's rows.
 fn shade(
     scene: &Scene,
     methods: &[Box<dyn LightShadowing>],
     hits: &[Option<SurfaceHit>],
     settings: &RenderSettings,
-    progress: &(dyn Fn(u64) + Sync),
+    progress: &(dyn Fn(Progress) + Sync),
 ) -> Shaded {
-    let RenderSettings { width, height, spp, seed, .. } = *settings;
-    let (w, h, spp_us) = (width as usize, height as usize, spp as usize);
+    let RenderSettings { width, height, profile, .. } = *settings;
+    let (w, h) = (width as usize, height as usize);
     let lights = scene.lights.len();
     let mut radiance = vec![Vec3::ZERO; w * h];
     let mut visibility = vec![0.0f32; w * h * lights];
-    let shading_points = AtomicU64::new(0);
-    let shadow_queries = AtomicU64::new(0);
-    let facing: Vec<AtomicU64> = (0..lights).map(|_| AtomicU64::new(0)).collect();
-    let lit: Vec<AtomicU64> = (0..lights).map(|_| AtomicU64::new(0)).collect();
-    radiance.par_chunks_mut(w).zip(visibility.par_chunks_mut(w * lights.max(1))).enumerate().for_each(
-        |(y, (rad_row, vis_row))| {
-            let (mut points, mut queries) = (0u64, 0u64);
-            let (mut row_facing, mut row_lit) = (vec![0u64; lights], vec![0u64; lights]);
-            for x in 0..w {
-                let pixel_index = (y * w + x) as u64;
-                let mut sum = Vec3::ZERO;
-                let mut hit_count = 0u32;
-                let vis_px = &mut vis_row[x * lights..(x + 1) * lights];
-                vis_px.fill(0.0);
-                for s in 0..spp_us {
-                    let Some(hit) = &hits[(y * w + x) * spp_us + s] else { continue };
-                    hit_count += 1;
-                    points += 1;
-                    let albedo = scene.albedo(hit);
-                    for (k, light) in scene.lights.iter().enumerate() {
-                        let e = light.irradiance_factor(hit.p, hit.n_shading);
-                        if e <= 0.0 {
-                            continue; // no light reaches: skip the shadow query
-                        }
-                        let q = ShadowQuery {
-                            p: hit.p,
-                            p_error: hit.p_error,
-                            n_geom: hit.n_geom,
-                            n_shading: hit.n_shading,
-                            pixel: [x as u32, y as u32],
-                            seed: stream_seed(&[seed, pixel_index, s as u64, k as u64, TAG_SHADOW]),
-                        };
-                        let v = methods[k].visibility(scene, &q);
-                        debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", methods[k].name());
-                        queries += 1;
-                        row_facing[k] += 1;
-                        row_lit[k] += u64::from(v > 0.0);
-                        vis_px[k] += v;
-                        sum += albedo * light.radiance * (e * v);
-                    }
-                }
-                rad_row[x] = sum * (std::f32::consts::FRAC_1_PI / spp as f32);
-                for v in vis_px.iter_mut() {
-                    *v = if hit_count == 0 { -1.0 } else { *v / hit_count as f32 };
+    let mut costs = vec![PixelCost::default(); if profile { w * h } else { 0 }];
+    // Without profiling the costs' chunks are empty: one per band all the same.
+    let cost_chunk = if profile { w * ROW_BAND } else { 1 };
+    let mut cost_chunks: Vec<&mut [PixelCost]> = costs.chunks_mut(cost_chunk).collect();
+    cost_chunks.resize_with(h.div_ceil(ROW_BAND), Default::default);
+    let tallies: Vec<Tally> = radiance
+        .par_chunks_mut(w * ROW_BAND)
+        .zip(visibility.par_chunks_mut(w * lights.max(1) * ROW_BAND))
+        .zip(cost_chunks.into_par_iter())
+        .enumerate()
+        .map(|(band, ((rad, vis), cost))| {
+            let y0 = band * ROW_BAND;
+            let rows = rad.len() / w;
+            let _span = tracing::info_span!("rows", y0, y1 = y0 + rows).entered();
+            let mut tally = Tally { points: 0, queries: 0, facing: vec![0; lights], lit: vec![0; lights] };
+            for i in 0..rad.len() {
+                let (x, y) = (i % w, y0 + i / w);
+                let vis_px = &mut vis[i * lights..(i + 1) * lights];
+                let (t0, w0) =
+                    if profile { (Some(Instant::now()), Work::now()) } else { (None, Work::default()) };
+                rad[i] = shade_pixel(scene, methods, hits, settings, [x, y], vis_px, &mut tally);
+                if let Some(t0) = t0 {
+                    cost[i] = PixelCost { time_s: t0.elapsed().as_secs_f32(), work: Work::now().since(w0) };
                 }
             }
-            shading_points.fetch_add(points, Ordering::Relaxed);
-            shadow_queries.fetch_add(queries, Ordering::Relaxed);
-            for k in 0..lights {
-                facing[k].fetch_add(row_facing[k], Ordering::Relaxed);
-                lit[k].fetch_add(row_lit[k], Ordering::Relaxed);
-            }
-            progress(1);
-        },
-    );
+            progress(Progress::Rows(rows as u64));
+            tally
+        })
+        .collect();
+    let sum = |f: &dyn Fn(&Tally) -> u64| tallies.iter().map(f).sum::<u64>();
     Shaded {
         radiance,
         visibility,
-        shading_points: shading_points.into_inner(),
-        shadow_queries: shadow_queries.into_inner(),
-        facing: facing.into_iter().map(AtomicU64::into_inner).collect(),
-        lit: lit.into_iter().map(AtomicU64::into_inner).collect(),
+        costs: profile.then_some(costs),
+        shading_points: sum(&|t| t.points),
+        shadow_queries: sum(&|t| t.queries),
+        facing: (0..lights).map(|k| sum(&|t| t.facing[k])).collect(),
+        lit: (0..lights).map(|k| sum(&|t| t.lit[k])).collect(),
     }
+}
+
+/// One pixel's radiance (the mean over its samples), its per-light visibility into `vis_px`
+/// (-1 where no sample hits), its points and queries added to `tally`.
+fn shade_pixel(
+    scene: &Scene,
+    methods: &[Box<dyn LightShadowing>],
+    hits: &[Option<SurfaceHit>],
+    settings: &RenderSettings,
+    [x, y]: [usize; 2],
+    vis_px: &mut [f32],
+    tally: &mut Tally,
+) -> Vec3 {
+    let RenderSettings { width, spp, seed, .. } = *settings;
+    let (w, spp_us) = (width as usize, spp as usize);
+    let pixel_index = (y * w + x) as u64;
+    let mut sum = Vec3::ZERO;
+    let mut hit_count = 0u32;
+    vis_px.fill(0.0);
+    for s in 0..spp_us {
+        let Some(hit) = &hits[(y * w + x) * spp_us + s] else { continue };
+        hit_count += 1;
+        tally.points += 1;
+        let albedo = scene.albedo(hit);
+        for (k, light) in scene.lights.iter().enumerate() {
+            let e = light.irradiance_factor(hit.p, hit.n_shading);
+            if e <= 0.0 {
+                continue; // no light reaches: skip the shadow query
+            }
+            let q = ShadowQuery {
+                p: hit.p,
+                p_error: hit.p_error,
+                n_geom: hit.n_geom,
+                n_shading: hit.n_shading,
+                pixel: [x as u32, y as u32],
+                seed: stream_seed(&[seed, pixel_index, s as u64, k as u64, TAG_SHADOW]),
+            };
+            let v = methods[k].visibility(scene, &q);
+            debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", methods[k].name());
+            tally.queries += 1;
+            tally.facing[k] += 1;
+            tally.lit[k] += u64::from(v > 0.0);
+            vis_px[k] += v;
+            sum += albedo * light.radiance * (e * v);
+        }
+    }
+    for v in vis_px.iter_mut() {
+        *v = if hit_count == 0 { -1.0 } else { *v / hit_count as f32 };
+    }
+    sum * (std::f32::consts::FRAC_1_PI / spp as f32)
 }

@@ -274,6 +274,7 @@ impl Scene {
     /// query that stops at the first hit.
     #[inline]
     pub fn occluded(&self, ray: Ray) -> bool {
+        crate::profile::count_ray();
         match &self.bvh {
             None => false,
             Some(bvh) => !bvh.ray_traverse_miss(ray, |r, slot| self.hit_distance(r, slot)),

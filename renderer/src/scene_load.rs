@@ -19,6 +19,7 @@ impl Scene {
     /// Loads a scene file: models, quads, camera, lights; builds the BVH.
     pub fn load(file: &SceneFile, scene_path: &Path) -> Result<Scene, SceneError> {
         let t0 = Instant::now();
+        let load_span = tracing::info_span!("load").entered();
         let mut geometry = Geometry::default();
         let gltf_camera = load_models(file, scene_path, &mut geometry)?;
         for q in &file.quad {
@@ -33,6 +34,7 @@ impl Scene {
         let lights = scene_lights(file, &geometry, 0.5 * (lo + hi), world_offset, scene_path, &mut warnings)?;
         let camera = scene_camera(file, gltf_camera, world_offset, scene_path)?;
         let load = t0.elapsed();
+        drop(load_span);
 
         let mut scene = Self::build(geometry, lights, camera, world_offset, load);
         warnings.append(&mut scene.warnings);
@@ -73,6 +75,7 @@ impl Scene {
             (lo, hi) = (Vec3::ZERO, Vec3::ZERO);
         }
         let t_bvh = Instant::now();
+        let bvh_span = tracing::info_span!("bvh", triangles = tris.len()).entered();
         let bvh = if tris.is_empty() {
             None
         } else {
@@ -84,6 +87,7 @@ impl Scene {
             shading = bvh.primitive_indices.iter().map(|&i| shading[i as usize]).collect();
             Some(bvh)
         };
+        drop(bvh_span);
         let bvh_time = t_bvh.elapsed();
         let any_alpha_test = materials.iter().any(|m| !matches!(m.alpha, crate::material::AlphaMode::Opaque));
         let stats = LoadStats {

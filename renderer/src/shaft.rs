@@ -301,6 +301,7 @@ impl Scene {
     /// Whether no triangle of the scene can meet `shaft` (alpha-tested ones count as solid):
     /// `true` proves every ray the shaft covers unblocked.
     pub fn shaft_clear(&self, shaft: &Shaft) -> bool {
+        crate::profile::count_shaft();
         let Some(bvh) = &self.bvh else { return true };
         let nodes = &bvh.nodes;
         if nodes.is_empty() {

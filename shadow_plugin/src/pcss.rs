@@ -297,6 +297,7 @@ impl LightShadowing for Pcss {
             lit += !receiver.blocks(i, j, map.at(i, j)) as u32;
         }
         self.pcf_taps.fetch_add(n_above as u64, Ordering::Relaxed);
+        renderer::profile::count_lookups(n_above as u64);
         if n_above == 0 {
             return 1.0;
         }

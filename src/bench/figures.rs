@@ -1,10 +1,14 @@
 //! A scene's figures: the truth's image, each family's best setting's image and error heat
 //! map, and the plot of error against cost.
 
+use super::cost::CostSplit;
 use super::plot;
+use super::report::BestFigures;
 use super::truth::Truth;
+use crate::heat;
 use glam::Vec3;
 use renderer::output::StagedFiles;
+use renderer::profile::PixelCost;
 use renderer::{Frame, RenderSettings};
 use std::path::Path;
 
@@ -34,9 +38,28 @@ fn heat_map(reach: &[Vec<f32>], truth: &[Vec<f32>], ours: &[Vec<f32>]) -> Vec<Ve
         .collect()
 }
 
-/// Stages `<stem>/truth.png`, and per family of `best` (family, RMSE, setting label, frame)
-/// `<stem>/<family>.png` and `<stem>/<family>.error.png`. Returns per family (family,
-/// setting label, image file, heat-map file), the files relative to `out`.
+/// `rgb` (`width` x `height`) scaled up by a whole factor, nearest pixel, to at least
+/// [`heat::MIN_WIDTH`] wide: (pixels, width, height).
+fn readable(rgb: &[Vec3], width: u32, height: u32) -> (Vec<Vec3>, u32, u32) {
+    let k = heat::MIN_WIDTH.div_ceil(width).max(1);
+    let (w, h) = (width * k, height * k);
+    let out = (0..h * w).map(|i| rgb[((i / w / k) * width + (i % w) / k) as usize]).collect();
+    (out, w, h)
+}
+
+/// A family's best setting as run: family, RMSE, setting label, frame, and its profiled
+/// render's per-pixel costs with its cost split.
+pub(super) struct Best {
+    pub family: &'static str,
+    pub label: String,
+    pub frame: Frame,
+    pub costs: Vec<PixelCost>,
+    pub split: CostSplit,
+}
+
+/// Stages `<stem>/truth.png`, and per family of `best` `<stem>/<family>.png`,
+/// `<stem>/<family>.error.png` and `<stem>/<family>.cost.png` (heat maps at least
+/// [`heat::MIN_WIDTH`] wide). Returns each family's figures, the files relative to `out`.
 pub(super) fn stage_images(
     staged: &mut StagedFiles,
     out: &Path,
@@ -44,21 +67,39 @@ pub(super) fn stage_images(
     settings: &RenderSettings,
     truth: &Truth,
     reach: &[Vec<f32>],
-    best: &[(&'static str, f64, String, Frame)],
-) -> Result<Vec<(String, String, String, String)>, String> {
+    best: &[Best],
+) -> Result<Vec<BestFigures>, String> {
     let (width, height) = (settings.width, settings.height);
     let scene_dir = out.join(stem);
     staged.png(&scene_dir.join("truth.png"), width, height, &truth.radiance)?;
-    let mut best_files = Vec::new();
-    for (fam, _, label, frame) in best {
-        let img = format!("{stem}/{fam}.png");
-        let heat = format!("{stem}/{fam}.error.png");
-        staged.png(&out.join(&img), width, height, &frame.radiance)?;
-        let hm = heat_map(reach, &truth.visibility, &frame.visibility);
-        staged.png(&out.join(&heat), width, height, &hm)?;
-        best_files.push((fam.to_string(), label.clone(), img, heat));
+    let missed: Vec<bool> = truth.visibility.first().map_or(vec![], |v| v.iter().map(|&x| x < 0.0).collect());
+    let mut figures = Vec::new();
+    for b in best {
+        let fam = b.family;
+        let image = format!("{stem}/{fam}.png");
+        let error_map = format!("{stem}/{fam}.error.png");
+        let cost_map = format!("{stem}/{fam}.cost.png");
+        staged.png(&out.join(&image), width, height, &b.frame.radiance)?;
+        let (hm, w, h) = readable(&heat_map(reach, &truth.visibility, &b.frame.visibility), width, height);
+        staged.png(&out.join(&error_map), w, h, &hm)?;
+        let times: Vec<Option<f64>> = b
+            .costs
+            .iter()
+            .enumerate()
+            .map(|(i, c)| (!missed.get(i).copied().unwrap_or(false)).then_some(c.time_s as f64))
+            .collect();
+        let png = heat::log_heat_map_png(width, height, &times, &format!("{fam}: shading time per pixel"))?;
+        staged.bytes(&out.join(&cost_map), &png)?;
+        figures.push(BestFigures {
+            family: fam.to_string(),
+            label: b.label.clone(),
+            image,
+            error_map,
+            cost_map,
+            cost_split_s: b.split,
+        });
     }
-    Ok(best_files)
+    Ok(figures)
 }
 
 /// Stages `plot.png` and `plot.svg` in `scene_dir`. The plot is drawn at once (plotters

@@ -16,11 +16,16 @@ pub(super) fn html(threads: usize, repeats: u32, results: &[SceneResult]) -> Str
 body{{font-family:sans-serif;margin:2em;max-width:1400px}}table{{border-collapse:collapse;font-size:13px}}\
 td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}td:first-child,th:first-child{{text-align:left}}\
 tr.default{{background:#fde}}figure{{display:inline-block;margin:4px;vertical-align:top}}\
-figcaption{{font-size:12px;max-width:330px}}img.plot{{max-width:900px;width:100%}}</style></head><body>\n\
+figcaption{{font-size:12px;max-width:330px}}img.plot{{max-width:900px;width:100%}}\
+span.bar{{display:inline-flex;height:16px;border:1px solid #999}}span.bar span{{display:inline-block;height:16px}}\
+span.key{{display:inline-block;width:10px;height:10px;margin-right:3px}}div.best{{margin-top:8px}}</style></head><body>\n\
 <h1>penumbra bench</h1>\n<p>{} scene(s), {} thread(s), median of {} run(s) per setting. Shadow cost = \
 shadow_prepare + render time above <code>none</code>. Errors are against <code>traced</code> at the truth's \
 sample count, over the pixels each light reaches. Data: <a href=\"results.csv\">results.csv</a>, \
-<a href=\"results.json\">results.json</a>. Heat maps: |visibility error|, black 0 to white &ge; 0.5.</p>\n",
+<a href=\"results.json\">results.json</a>. Error heat maps: |visibility error|, black 0 to white &ge; 0.5. \
+Cost heat maps: each pixel's shading time (a profiled run of the best setting), log scale. Bars: the \
+shadow cost split into prepare, table lookups, traced rays, shaft tests and the rest, the middle three by a \
+least-squares fit of the pixels' times on their counts.</p>\n",
         results.len(),
         threads,
         repeats
@@ -99,28 +104,68 @@ fn table(h: &mut String, r: &SceneResult) {
     }
 }
 
-/// A scene's images: the truth, and each family's best setting's with its error heat map.
+/// A scene's images: the truth, and per family its best setting's image, error heat map
+/// and cost heat map side by side, and a bar splitting its shadow cost.
 fn images(h: &mut String, r: &SceneResult) {
-    h.push_str("<div>\n");
     let _ = writeln!(
         h,
-        "<figure><img src=\"{0}/truth.png\" alt=\"truth\"><figcaption>truth (traced N={1})</figcaption></figure>",
+        "<div><figure><img src=\"{0}/truth.png\" alt=\"truth\"><figcaption>truth (traced N={1})</figcaption></figure></div>",
         esc(&r.stem),
         r.truth_samples
     );
-    for (fam, label, img, heat) in &r.best {
+    // The bars share one scale per scene: the costliest method's shadow cost.
+    let widest =
+        r.best.iter().map(|b| b.cost_split_s.parts().iter().map(|p| p.1).sum::<f64>()).fold(0.0, f64::max);
+    for b in &r.best {
         let _ = writeln!(
             h,
-            "<figure><img src=\"{}\" alt=\"{}\"><figcaption>{} (best {})</figcaption></figure>\
-<figure><img src=\"{}\" alt=\"{} error\"><figcaption>{}: |error|</figcaption></figure>",
-            esc(img),
-            esc(fam),
-            esc(label),
-            esc(fam),
-            esc(heat),
-            esc(fam),
-            esc(label)
+            "<div class=\"best\"><figure><img src=\"{}\" alt=\"{}\" width=\"320\"><figcaption>{} (best {})</figcaption></figure>\
+<figure><img src=\"{}\" alt=\"{} error\" width=\"320\"><figcaption>{}: |visibility error|</figcaption></figure>\
+<figure><img src=\"{}\" alt=\"{} cost\" width=\"320\"><figcaption>{}: shading time per pixel, log scale</figcaption></figure>",
+            esc(&b.image),
+            esc(&b.family),
+            esc(&b.label),
+            esc(&b.family),
+            esc(&b.error_map),
+            esc(&b.family),
+            esc(&b.label),
+            esc(&b.cost_map),
+            esc(&b.family),
+            esc(&b.label)
+        );
+        bar(h, b, widest);
+        h.push_str("</div>\n");
+    }
+}
+
+/// Colours of the cost split's parts, in [`CostSplit::parts`] order.
+const PART_COLOURS: [&str; 5] = ["#6a51a3", "#e6550d", "#3182bd", "#31a354", "#bbbbbb"];
+
+/// A horizontal bar of `b`'s shadow cost split, `widest` seconds spanning 600 px.
+fn bar(h: &mut String, b: &super::report::BestFigures, widest: f64) {
+    let parts = b.cost_split_s.parts();
+    let total: f64 = parts.iter().map(|p| p.1).sum();
+    let _ = write!(
+        h,
+        "<p class=\"bar\"><b>{}</b> shadow cost {:.3} s:<br><span class=\"bar\">",
+        esc(&b.family),
+        total
+    );
+    for ((name, secs), colour) in parts.iter().zip(PART_COLOURS) {
+        let px = if widest > 0.0 { 600.0 * secs / widest } else { 0.0 };
+        let _ = write!(
+            h,
+            "<span style=\"width:{px:.1}px;background:{colour}\" title=\"{name}: {secs:.3} s\"></span>"
         );
     }
-    h.push_str("</div>\n");
+    h.push_str("</span><br><small>");
+    let legend: Vec<String> = parts
+        .iter()
+        .zip(PART_COLOURS)
+        .map(|((name, secs), colour)| {
+            format!("<span class=\"key\" style=\"background:{colour}\"></span>{name} {secs:.3} s")
+        })
+        .collect();
+    h.push_str(&legend.join(" &nbsp; "));
+    h.push_str("</small></p>\n");
 }

@@ -15,6 +15,7 @@
 //! image and error heat map; `index.html` with all of it; and a summary on stdout.
 //! `--quick`: a tiny image, the truth at 256 samples, a short sweep, one repeat (for CI).
 
+mod cost;
 mod figures;
 mod html;
 pub mod metrics;

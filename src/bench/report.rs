@@ -119,6 +119,7 @@ pub(super) fn json(
             "truth_seconds": s.truth_seconds, "equal_error_speedup": s.speedup,
             "equal_error_speedup_image": s.speedup_image,
             "equal_error_speedup_penumbra": s.speedup_penumbra, "skipped": s.skipped,
+            "best": s.best,
         })).collect::<Vec<_>>(),
         "rows": all_rows,
     })
@@ -135,8 +136,8 @@ pub struct SceneResult {
     pub truth_cached: bool,
     pub truth_seconds: f64,
     pub rows: Vec<Row>,
-    /// Per method family: (setting label, image file, heat-map file), the best setting's.
-    pub best: Vec<(String, String, String, String)>,
+    /// Per method family, the best setting's figures.
+    pub best: Vec<BestFigures>,
     /// The equal-error speedup of `edge_table` (default, 1024 samples), if it was run: on
     /// visibility RMSE, on the final image's relative RMSE (what a user sees) and on the
     /// penumbra RMSE.
@@ -145,6 +146,18 @@ pub struct SceneResult {
     pub speedup_penumbra: Option<Speedup>,
     /// Settings not run (see `--max-run-seconds`).
     pub skipped: Vec<String>,
+}
+
+/// A family's best setting: its label, its image, error and cost heat maps (files relative
+/// to the bench folder) and where its shadow cost goes.
+#[derive(Debug, Clone, Serialize)]
+pub struct BestFigures {
+    pub family: String,
+    pub label: String,
+    pub image: String,
+    pub error_map: String,
+    pub cost_map: String,
+    pub cost_split_s: super::cost::CostSplit,
 }
 
 /// The equal-error speedup (the definition): the shadow cost of the cheapest
@@ -295,12 +308,12 @@ pub(super) fn summary(args: &BenchArgs, results: &[SceneResult]) -> String {
             r.truth_samples,
             if r.truth_cached { ", cached" } else { "" }
         );
-        for (fam, label, ..) in &r.best {
-            if let Some(row) = r.rows.iter().find(|x| &x.setting == label) {
+        for b in &r.best {
+            if let Some(row) = r.rows.iter().find(|x| x.setting == b.label) {
                 let _ = writeln!(
                     s,
                     "  best {:<12} {:<36} RMSE {:.4}  cost {:.3} s",
-                    fam, label, row.errors.rmse, row.shadow_cost_s
+                    b.family, b.label, row.errors.rmse, row.shadow_cost_s
                 );
             }
         }

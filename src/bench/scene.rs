@@ -5,7 +5,7 @@ use super::report::{Measure, Row, SceneResult, equal_error_speedup, equal_error_
 use super::run::{Run, median, run_setting};
 use super::sweep::{CostOrder, Setting, no_costlier, none_setting};
 use super::truth::Truth;
-use super::{BENCH_WIDTH, BenchArgs, QUICK_WIDTH, figures, metrics, plot, truth};
+use super::{BENCH_WIDTH, BenchArgs, QUICK_WIDTH, cost, figures, metrics, plot, truth};
 use renderer::output::StagedFiles;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile};
 use std::path::{Path, PathBuf};
@@ -109,7 +109,8 @@ pub(super) fn bench_scene(
     let scene = Scene::load(file, path)?;
     let (width, height) = bench_size(args, file.image.width, file.image.height);
     let mask_budget_bytes = crate::memory::mask_budget_bytes();
-    let settings = RenderSettings { width, height, spp: 1, seed: args.seed, mask_budget_bytes };
+    let settings =
+        RenderSettings { width, height, spp: 1, seed: args.seed, mask_budget_bytes, profile: false };
     let scene_dir = out.join(stem);
     std::fs::create_dir_all(&scene_dir)
         .map_err(|e| SceneError::new(&scene_dir, "--out", format!("cannot create the folder: {e}")))?;
@@ -134,17 +135,19 @@ pub(super) fn bench_scene(
     let Swept { rows, best, skipped } = sweep_scene(plan, &base);
 
     let io = |e: String| SceneError::new(out, "--out", e);
-    // Images: the truth, and each family's best setting with its error heat map.
+    // Each family's best setting once more, profiled: its cost heat map and split.
+    let best = profile_best(plan, &base, &rows, best).map_err(|e| SceneError::new(path, "bench", e))?;
+    // Images: the truth, and each family's best setting with its error and cost heat maps.
     let best_files =
         figures::stage_images(staged, out, stem, &settings, &truth, &reach, &best).map_err(io)?;
     // The plot: error against cost, a line per family.
     let series: Vec<plot::Series> = best
         .iter()
-        .map(|(fam, ..)| plot::Series {
-            family: fam,
+        .map(|b| plot::Series {
+            family: b.family,
             points: rows
                 .iter()
-                .filter(|r| r.method == *fam)
+                .filter(|r| r.method == b.family)
                 .map(|r| (r.shadow_cost_s, r.errors.rmse))
                 .collect(),
         })
@@ -232,6 +235,26 @@ fn sweep_scene(plan: &Plan, base: &Baseline) -> Swept {
         rows.push(row);
     }
     Swept { rows, best, skipped }
+}
+
+/// Renders each family's best setting once more with profiling, for its cost heat map and
+/// the split of its shadow cost (the row's median cost and prepare).
+fn profile_best(
+    plan: &Plan,
+    base: &Baseline,
+    rows: &[Row],
+    best: Vec<(&'static str, f64, String, Frame)>,
+) -> Result<Vec<figures::Best>, String> {
+    let threads = rayon::current_num_threads();
+    let mut out = Vec::new();
+    for (family, _, label, frame) in best {
+        let setting = plan.settings.iter().find(|s| s.label == label).expect("a swept setting");
+        let row = rows.iter().find(|r| r.setting == label).expect("a row per setting run");
+        let costs = cost::profiled(base.scene, setting, &base.settings)?;
+        let split = cost::split(&costs, row.shadow_cost_s, row.shadow_prepare_s, threads);
+        out.push(figures::Best { family, label, frame, costs, split });
+    }
+    Ok(out)
 }
 
 /// The row of setting `s`, run as `run`, on the scene of `base`: its errors against the

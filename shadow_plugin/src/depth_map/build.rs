@@ -134,6 +134,7 @@ impl DepthMap {
         visible: &[VisiblePoint],
         params: &DepthMapParams,
     ) -> Self {
+        let _span = tracing::info_span!("depth_map", resolution = params.resolution).entered();
         assert!(params.slope_bias >= 0.0 && params.slope_bias.is_finite(), "slope_bias");
         assert!(params.slab_thickness >= 0.0 && params.slab_thickness.is_finite(), "slab_thickness");
         let frame = LightFrame::new(light);

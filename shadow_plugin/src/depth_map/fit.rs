@@ -25,6 +25,7 @@ pub(super) fn fit(
     params: &DepthMapParams,
     res: u32,
 ) -> Frustum {
+    let _span = tracing::info_span!("fit").entered();
     let (lo, hi, z_recv_min) = receiver_box(scene, light, frame, visible, params);
     let caster_z_near = caster_z_near(scene, frame, lo, hi, z_recv_min);
     // The margin: how far a shadow ray travels in the image before it is above the

@@ -162,6 +162,7 @@ impl EdgeTable {
         levels: &[(f32, f32)],
         budget: u64,
     ) -> Result<Vec<Mask>, ShadowError> {
+        let _span = tracing::info_span!("masks", count = built.len(), samples = self.samples).entered();
         let [gx, gy, _] = self.params.grid;
         let n = self.samples as usize;
         let half = map.frame.half_size;
@@ -242,11 +243,13 @@ impl EdgeTable {
     /// march, the masks within the memory budget.
     fn prepare_published(&self, ctx: &PrepareContext) -> Result<Prepared, ShadowError> {
         let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map);
+        let levels_span = tracing::info_span!("depth_levels").entered();
         let (levels, z_hi) = grid::depth_levels(&map, ctx.visible, self.params.grid[2]);
         // Each mask marches far enough for the deepest point it serves, and no further than
         // the receivers need.
         let serve_hi = grid::serve_depths(&levels, z_hi, self.params.blend);
         let h_cap = mask_height_cap(&map, ctx.visible);
+        drop(levels_span);
         let per_level: Vec<(f32, f32)> = levels
             .iter()
             .zip(&serve_hi)
@@ -271,8 +274,10 @@ impl EdgeTable {
             DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &self.params.depth_map);
         let map =
             Box::new(ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() });
+        let levels_span = tracing::info_span!("depth_levels").entered();
         let (levels, _) = grid::depth_levels(&map.near, &visible, self.params.grid[2]);
         let w_cap = map.stop_reach_quantile(&visible, MASK_HEIGHT_QUANTILE);
+        drop(levels_span);
         let per_level: Vec<(f32, f32)> = levels
             .iter()
             .map(|&z| {
@@ -354,6 +359,7 @@ impl EdgeTable {
             v += w * if n_above == 0 { 1.0 } else { n_visible as f32 / n_above as f32 };
         }
         self.lookups.fetch_add(lookups, Ordering::Relaxed);
+        renderer::profile::count_lookups(lookups);
         self.early_outs.fetch_add(early_outs, Ordering::Relaxed);
         if culled > 0 {
             self.blocks_culled.fetch_add(culled, Ordering::Relaxed);
@@ -404,6 +410,7 @@ impl EdgeTable {
             c.rays_near_traced.fetch_add(stats.rays_near_traced, Ordering::Relaxed);
             c.rays_far_traced.fetch_add(stats.rays_far_traced, Ordering::Relaxed);
             self.lookups.fetch_add(stats.lookups, Ordering::Relaxed);
+            renderer::profile::count_lookups(stats.lookups);
             if stats.blocks_culled > 0 {
                 self.blocks_culled.fetch_add(stats.blocks_culled, Ordering::Relaxed);
             }

@@ -294,6 +294,7 @@ impl DepthBounds {
         z_clip: f32,
         z_casters: f32,
     ) -> (Self, Vec<f32>) {
+        let _span = tracing::info_span!("bounds", resolution = res).entered();
         let n = (res * res) as usize;
         let slack = gamma(64) * (scene.coordinate_bound() + frame.origin.abs().max_element());
         // The world-space slack seen at the casters' nearest depth, in pixels.
@@ -310,6 +311,7 @@ impl DepthBounds {
                 (id as u32, v, opaque)
             })
             .collect();
+        let raster_span = tracing::info_span!("rasterize").entered();
         let raster = light_tris
             .par_chunks(4096)
             .fold(
@@ -323,6 +325,8 @@ impl DepthBounds {
             )
             .map(|(r, _, _)| r)
             .reduce(|| Raster::new(n), Raster::merge);
+        drop(raster_span);
+        let edges_span = tracing::info_span!("open_edges").entered();
         let opaque: Vec<[Vec3; 3]> = light_tris.iter().filter(|(_, _, o)| *o).map(|(_, v, _)| *v).collect();
         let open = open_edges(&opaque);
         // Open edges only set flags: rasterized into flag maps of their own, then ORed in.
@@ -346,6 +350,8 @@ impl DepthBounds {
             );
         let mut raster = raster;
         raster.flags.iter_mut().zip(&open_flags).for_each(|(x, y)| *x |= *y);
+        drop(edges_span);
+        let _runs_span = tracing::info_span!("runs").entered();
         let runs = pixel_runs(std::mem::take(&mut raster.ranges), n);
         let Blocks { near2, end2, next2, far2, near_on_map } = blocks(&raster, &runs, res as usize);
         let bounds =
@@ -394,6 +400,7 @@ impl DepthBounds {
         visible: &[renderer::VisiblePoint],
         params: &super::DepthMapParams,
     ) -> (DepthBounds, super::DepthMap) {
+        let _span = tracing::info_span!("depth_map", resolution = params.resolution).entered();
         let frame = LightFrame::new(light);
         let res = params.resolution.max(4);
         let super::fit::Frustum { origin, pitch, caster_z_near } =
