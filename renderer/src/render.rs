@@ -221,15 +221,18 @@ fn primary_hits(
 
 /// Every primary hit as the point `prepare` reads.
 fn visible_points(hits: &[Option<SurfaceHit>]) -> Vec<VisiblePoint> {
-    hits.iter()
-        .flatten()
-        .map(|hit| VisiblePoint {
-            p: hit.p,
-            p_error: hit.p_error,
-            n_geom: hit.n_geom,
-            n_shading: hit.n_shading,
-        })
-        .collect()
+    let point = |hit: &SurfaceHit| VisiblePoint {
+        p: hit.p,
+        p_error: hit.p_error,
+        n_geom: hit.n_geom,
+        n_shading: hit.n_shading,
+    };
+    // Counted first, so the vector is allocated once: grown by doubling, 33 M hits cost
+    // 4.8 s here (copies and page faults of GBs), a parallel flattened collect 25 s.
+    let count = hits.par_iter().filter(|h| h.is_some()).count();
+    let mut out = Vec::with_capacity(count);
+    out.extend(hits.iter().flatten().map(point));
+    out
 }
 
 /// Prepares every light's method with what the camera sees (every primary hit).
