@@ -47,6 +47,10 @@ pub struct RenderArgs {
     /// Primary samples per pixel (1 = the pixel centre).
     #[arg(long)]
     pub spp: Option<u32>,
+    /// Longest light path, counted as Mitsuba 3 counts it: 2 = direct light only, 5 = three
+    /// indirect bounces (the default); overrides `[integrator].max_depth`.
+    #[arg(long)]
+    pub max_depth: Option<u32>,
     /// Output PNG; the EXR and JSON report go beside it. Default: out/<scene-stem>.png.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -151,6 +155,7 @@ struct RenderPlan {
     width: u32,
     height: u32,
     spp: u32,
+    max_depth: u32,
     png: PathBuf,
 }
 
@@ -168,7 +173,11 @@ fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
     let shadows = shadows_config(args, &file, &scene_path)?;
     let (width, height, spp) = image_size(args, &file, &scene_path)?;
     let png = png_path(args, &scene_path)?;
-    Ok(RenderPlan { scene_path, file, shadows, width, height, spp, png })
+    let max_depth = args.max_depth.unwrap_or(file.integrator.max_depth);
+    if !renderer::path::DEPTH_RANGE.contains(&max_depth) {
+        return Err(SceneError::new(&scene_path, "--max-depth", renderer::path::DEPTH_RANGE_TEXT));
+    }
+    Ok(RenderPlan { scene_path, file, shadows, width, height, spp, max_depth, png })
 }
 
 /// The scene file's `[shadows]` with `--shadows`, `--samples` and a code-only method
@@ -253,6 +262,7 @@ fn render_frame(
         seed,
         mask_budget_bytes,
         profile,
+        max_depth: plan.max_depth,
     };
     render(scene, &mut methods, &settings, &|p| progress.report(p))
         .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))
@@ -340,6 +350,7 @@ fn build_report(
         width: plan.width,
         height: plan.height,
         spp: plan.spp,
+        max_depth: plan.max_depth,
         threads,
         seed,
         lights: scene.lights.len(),

@@ -57,8 +57,16 @@ fn main() -> ExitCode {
                 let samples =
                     if r.method == "none" { String::new() } else { format!(" ({} samples)", r.samples) };
                 println!(
-                    "{}: {} {}x{} spp {}{samples}, {} triangles, {} light(s), {} threads",
-                    r.scene, r.method, r.width, r.height, r.spp, r.triangles, r.lights, r.threads
+                    "{}: {} {}x{} spp {}{samples}, max depth {}, {} triangles, {} light(s), {} threads",
+                    r.scene,
+                    r.method,
+                    r.width,
+                    r.height,
+                    r.spp,
+                    r.max_depth,
+                    r.triangles,
+                    r.lights,
+                    r.threads
                 );
                 println!(
                     "time: load {:.3}s, bvh {:.3}s, visible points {:.3}s, shadow_prepare {:.3}s, render {:.3}s, \

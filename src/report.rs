@@ -46,6 +46,8 @@ pub struct RunReport {
     pub width: u32,
     pub height: u32,
     pub spp: u32,
+    /// Longest path (2 = direct light only).
+    pub max_depth: u32,
     pub threads: usize,
     pub seed: u64,
     pub lights: usize,

@@ -31,6 +31,7 @@ fn visibility(scene: &Scene) -> Vec<f32> {
         seed: 7,
         mask_budget_bytes: 1 << 30,
         profile: false,
+        max_depth: 2,
     };
     let frame = render(scene, &mut methods, &settings, &|_| {}).unwrap();
     frame.visibility[0].clone()
@@ -92,8 +93,15 @@ fn far_geometry_is_counted_and_warned_about_with_its_precision() {
 
     // The render adds how precise the visible part is.
     let mut methods: Vec<Box<dyn LightShadowing>> = vec![Box::new(renderer::Unshadowed {})];
-    let settings =
-        RenderSettings { width: 32, height: 24, spp: 1, seed: 0, mask_budget_bytes: 1 << 30, profile: false };
+    let settings = RenderSettings {
+        width: 32,
+        height: 24,
+        spp: 1,
+        seed: 0,
+        mask_budget_bytes: 1 << 30,
+        profile: false,
+        max_depth: 2,
+    };
     let frame = render(&mid, &mut methods, &settings, &|_| {}).unwrap();
     let line = frame.warnings.iter().find(|w| w.starts_with("the visible part")).expect("a precision line");
     // The farthest visible point is the back wall's corner, 6.3 m away: spacing 2^-21 m.

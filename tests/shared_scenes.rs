@@ -85,6 +85,7 @@ fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
         seed: 3,
         mask_budget_bytes: u64::MAX,
         profile: false,
+        max_depth: 2,
     };
     for path in names {
         let file = SceneFile::load(&path).unwrap();

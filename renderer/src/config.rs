@@ -22,9 +22,32 @@ pub struct SceneFile {
     /// Rectangular area lights. When empty, emissive rectangles in the models become lights.
     #[serde(default)]
     pub light: Vec<LightDesc>,
+    /// How light is gathered: the path depth.
+    #[serde(default)]
+    pub integrator: IntegratorDesc,
     /// The shadow method and its parameters, typed by the composition root (the CLI).
     #[serde(default)]
     pub shadows: toml::Table,
+}
+
+/// `[integrator]`: diffuse path tracing with next-event estimation at every vertex.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntegratorDesc {
+    /// Longest path, counted as Mitsuba 3 counts it: 2 = direct light only, 5 = three
+    /// indirect bounces (the default, pbrt's depth).
+    #[serde(default = "default_max_depth")]
+    pub max_depth: u32,
+}
+
+fn default_max_depth() -> u32 {
+    crate::path::DEFAULT_MAX_DEPTH
+}
+
+impl Default for IntegratorDesc {
+    fn default() -> Self {
+        Self { max_depth: default_max_depth() }
+    }
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -219,6 +242,9 @@ impl SceneFile {
         }
         if im.spp == 0 || im.spp > MAX_SPP {
             return err("image.spp".into(), &format!("must be in 1..={MAX_SPP}"));
+        }
+        if !crate::path::DEPTH_RANGE.contains(&self.integrator.max_depth) {
+            return err("integrator.max_depth".into(), crate::path::DEPTH_RANGE_TEXT);
         }
         for (i, l) in self.light.iter().enumerate() {
             validate_light(l, &format!("light[{i}]"), path)?;

@@ -14,6 +14,7 @@ pub mod light_sampling;
 pub mod material;
 pub mod method;
 pub mod output;
+pub mod path;
 pub mod precision;
 #[cfg(test)]
 mod precision_tests;

@@ -3,10 +3,11 @@
 //! number is keyed by (seed, pixel, sample, light), so the bytes do not depend on the number
 //! of threads.
 
+use crate::path::{PathId, VertexQueries, merge_vertex_queries};
 use crate::profile::{PixelCost, Work};
 use crate::sampling::{Rng, strata, stream_seed};
 use crate::scene::{Scene, SurfaceHit};
-use crate::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery, VisiblePoint};
+use crate::shadowing::{LightShadowing, PrepareContext, ShadowError, VisiblePoint};
 use glam::{Vec3, Vec3A};
 use obvhs::ray::Ray;
 use rayon::prelude::*;
@@ -25,6 +26,9 @@ pub struct RenderSettings {
     pub mask_budget_bytes: u64,
     /// Measure each pixel's shading time and work ([`Frame::costs`]).
     pub profile: bool,
+    /// Longest path, counted as Mitsuba 3 counts it ([`crate::path`]): 2 = direct light
+    /// only, 5 = three indirect bounces.
+    pub max_depth: u32,
 }
 
 /// What [`render`] reports as it goes, for a progress display.
@@ -60,15 +64,16 @@ pub struct Frame {
     pub render: Duration,
     /// Per pixel, with [`RenderSettings::profile`]: its shading time and shadow work.
     pub costs: Option<Vec<PixelCost>>,
+    /// Shadow queries per path vertex (index 0 = the primary hit).
+    pub vertex_queries: Vec<VertexQueries>,
     pub counters: BTreeMap<String, u64>,
     /// One line each: what makes this image suspect (nothing hit, no light reaching what the
     /// camera sees, visible geometry f32 cannot keep precise). See [`frame_warnings`].
     pub warnings: Vec<String>,
 }
 
-/// Stream tags, so different uses of one pixel's seed never share random numbers.
+/// Stream tag of the primary samples' jitter (the others: [`crate::path`]).
 const TAG_PRIMARY: u64 = 1;
-const TAG_SHADOW: u64 = 2;
 
 /// Renders `scene` with one shadow method per light (`methods[k]` shadows `scene.lights[k]`).
 /// `progress` is told each phase as it begins and the rows finished, from any thread.
@@ -93,7 +98,15 @@ pub fn render(
 
     let t_gather = Instant::now();
     progress(Progress::Phase { name: "gathering visible points", rows: 0 });
-    let visible = tracing::info_span!("visible_points").in_scope(|| visible_points(&hits));
+    let visible = tracing::info_span!("visible_points").in_scope(|| {
+        let mut v = visible_points(&hits);
+        // Paths query points the camera does not see: the first bounce of each pixel's first
+        // sample (exactly the vertex its path will query), so depth maps cover them too.
+        if settings.max_depth > 2 {
+            v.extend(first_bounces(scene, &hits, settings));
+        }
+        v
+    });
     let visible_points = t_gather.elapsed();
 
     let t_prepare = Instant::now();
@@ -119,6 +132,13 @@ pub fn render(
         (0..lights).map(|k| (0..w * h).map(|i| shaded.visibility[i * lights + k]).collect()).collect();
     let warnings = frame_warnings(scene, &hits, &shaded.facing, &shaded.lit);
     let render = primary_time + t_shade.elapsed();
+    if settings.max_depth > 2 {
+        for (i, v) in shaded.vertex_queries.iter().enumerate() {
+            counters.insert(format!("shadow_queries_vertex_{}", i + 1), v.queries);
+            counters.insert(format!("shadow_rays_vertex_{}", i + 1), v.rays);
+            counters.insert(format!("shadow_queries_without_rays_vertex_{}", i + 1), v.without_rays);
+        }
+    }
     Ok(Frame {
         width,
         height,
@@ -128,6 +148,7 @@ pub fn render(
         shadow_prepare,
         render,
         costs: shaded.costs,
+        vertex_queries: shaded.vertex_queries,
         counters,
         warnings,
     })
@@ -219,6 +240,34 @@ fn primary_hits(
     hits
 }
 
+/// The first vertex after the primary hit of each pixel's first sample, as
+/// [`crate::path::indirect`] will find it (the same random stream).
+fn first_bounces(scene: &Scene, hits: &[Option<SurfaceHit>], settings: &RenderSettings) -> Vec<VisiblePoint> {
+    let RenderSettings { width, spp, seed, .. } = *settings;
+    let (w, spp) = (width as usize, spp as usize);
+    let rows: Vec<Vec<VisiblePoint>> = hits
+        .par_chunks(w * spp)
+        .enumerate()
+        .map(|(y, row)| {
+            (0..w)
+                .filter_map(|x| {
+                    let hit = row[x * spp].as_ref()?;
+                    let pixel_index = (y * w + x) as u64;
+                    let id = PathId { pixel: [x as u32, y as u32], pixel_index, sample: 0, seed };
+                    let next = crate::path::bounce(scene, hit, &mut id.bounce_rng())?;
+                    Some(VisiblePoint {
+                        p: next.p,
+                        p_error: next.p_error,
+                        n_geom: next.n_geom,
+                        n_shading: next.n_shading,
+                    })
+                })
+                .collect()
+        })
+        .collect();
+    rows.concat()
+}
+
 /// Every primary hit as the point `prepare` reads.
 fn visible_points(hits: &[Option<SurfaceHit>]) -> Vec<VisiblePoint> {
     let point = |hit: &SurfaceHit| VisiblePoint {
@@ -269,6 +318,7 @@ struct Shaded {
     /// Per pixel, then per light: as `Frame::visibility`, interleaved.
     visibility: Vec<f32>,
     costs: Option<Vec<PixelCost>>,
+    vertex_queries: Vec<VertexQueries>,
     shading_points: u64,
     shadow_queries: u64,
     /// Per light: shading points with non-zero irradiance from it.
@@ -277,13 +327,13 @@ struct Shaded {
     lit: Vec<u64>,
 }
 
-/// A band's tallies: shading points, shadow queries, and per light the points facing it and
-/// those it reaches.
+/// A band's tallies: shading points, per light the points facing it and those it reaches,
+/// and the shadow queries per path vertex.
 struct Tally {
     points: u64,
-    queries: u64,
     facing: Vec<u64>,
     lit: Vec<u64>,
+    vertices: Vec<VertexQueries>,
 }
 
 /// The shading pass: irradiance times visibility at every primary hit, from every light,
@@ -315,7 +365,12 @@ fn shade(
             let y0 = band * ROW_BAND;
             let rows = rad.len() / w;
             let _span = tracing::info_span!("rows", y0, y1 = y0 + rows).entered();
-            let mut tally = Tally { points: 0, queries: 0, facing: vec![0; lights], lit: vec![0; lights] };
+            let mut tally = Tally {
+                points: 0,
+                facing: vec![0; lights],
+                lit: vec![0; lights],
+                vertices: vec![VertexQueries::default(); settings.max_depth.max(2) as usize - 1],
+            };
             for i in 0..rad.len() {
                 let (x, y) = (i % w, y0 + i / w);
                 let vis_px = &mut vis[i * lights..(i + 1) * lights];
@@ -331,12 +386,18 @@ fn shade(
         })
         .collect();
     let sum = |f: &dyn Fn(&Tally) -> u64| tallies.iter().map(f).sum::<u64>();
+    let mut vertex_queries = Vec::new();
+    for t in &tallies {
+        merge_vertex_queries(&mut vertex_queries, &t.vertices);
+    }
+    let shadow_queries = vertex_queries.iter().map(|v| v.queries).sum();
     Shaded {
+        vertex_queries,
         radiance,
         visibility,
         costs: profile.then_some(costs),
         shading_points: sum(&|t| t.points),
-        shadow_queries: sum(&|t| t.queries),
+        shadow_queries,
         facing: (0..lights).map(|k| sum(&|t| t.facing[k])).collect(),
         lit: (0..lights).map(|k| sum(&|t| t.lit[k])).collect(),
     }
@@ -353,10 +414,12 @@ fn shade_pixel(
     vis_px: &mut [f32],
     tally: &mut Tally,
 ) -> Vec3 {
-    let RenderSettings { width, spp, seed, .. } = *settings;
+    let RenderSettings { width, spp, seed, profile, max_depth, .. } = *settings;
     let (w, spp_us) = (width as usize, spp as usize);
     let pixel_index = (y * w + x) as u64;
-    let mut sum = Vec3::ZERO;
+    // The primary hits' direct light, summed as the direct-light renderer sums it (so
+    // max_depth = 2 gives its bytes), and the paths' indirect light beside it.
+    let (mut sum, mut indirect) = (Vec3::ZERO, Vec3::ZERO);
     let mut hit_count = 0u32;
     vis_px.fill(0.0);
     for s in 0..spp_us {
@@ -364,30 +427,43 @@ fn shade_pixel(
         hit_count += 1;
         tally.points += 1;
         let albedo = scene.albedo(hit);
+        let id = PathId { pixel: [x as u32, y as u32], pixel_index, sample: s as u64, seed };
         for (k, light) in scene.lights.iter().enumerate() {
             let e = light.irradiance_factor(hit.p, hit.n_shading);
             if e <= 0.0 {
                 continue; // no light reaches: skip the shadow query
             }
-            let q = ShadowQuery {
-                p: hit.p,
-                p_error: hit.p_error,
-                n_geom: hit.n_geom,
-                n_shading: hit.n_shading,
-                pixel: [x as u32, y as u32],
-                seed: stream_seed(&[seed, pixel_index, s as u64, k as u64, TAG_SHADOW]),
-            };
-            let v = methods[k].visibility(scene, &q);
-            debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", methods[k].name());
-            tally.queries += 1;
+            let v = crate::path::shadow_query(
+                scene,
+                methods[k].as_ref(),
+                hit,
+                &id,
+                k,
+                1,
+                profile,
+                &mut tally.vertices,
+            );
             tally.facing[k] += 1;
             tally.lit[k] += u64::from(v > 0.0);
             vis_px[k] += v;
             sum += albedo * light.radiance * (e * v);
         }
+        if max_depth > 2 {
+            indirect += crate::path::indirect(
+                scene,
+                methods,
+                hit,
+                albedo,
+                &id,
+                max_depth,
+                profile,
+                &mut tally.vertices,
+            );
+        }
     }
     for v in vis_px.iter_mut() {
         *v = if hit_count == 0 { -1.0 } else { *v / hit_count as f32 };
     }
-    sum * (std::f32::consts::FRAC_1_PI / spp as f32)
+    let direct = sum * (std::f32::consts::FRAC_1_PI / spp as f32);
+    if max_depth > 2 { direct + indirect / spp as f32 } else { direct }
 }

@@ -109,8 +109,15 @@ pub(super) fn bench_scene(
     let scene = Scene::load(file, path)?;
     let (width, height) = bench_size(args, file.image.width, file.image.height);
     let mask_budget_bytes = crate::memory::mask_budget_bytes();
-    let settings =
-        RenderSettings { width, height, spp: 1, seed: args.seed, mask_budget_bytes, profile: false };
+    let settings = RenderSettings {
+        width,
+        height,
+        spp: 1,
+        seed: args.seed,
+        mask_budget_bytes,
+        profile: false,
+        max_depth: 2,
+    };
     let scene_dir = out.join(stem);
     std::fs::create_dir_all(&scene_dir)
         .map_err(|e| SceneError::new(&scene_dir, "--out", format!("cannot create the folder: {e}")))?;

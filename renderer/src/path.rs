@@ -1,0 +1,208 @@
+//! Indirect light: diffuse path tracing from each primary hit, with next-event estimation at
+//! every vertex through the same [`LightShadowing`] query as the primary hit's.
+//!
+//! Depth is counted as Mitsuba 3 counts it: the camera ray is the first segment, so
+//! `max_depth = 2` is direct light only (no bounce), and `max_depth = 5` adds three
+//! indirect bounces (pbrt's default depth). A bounce is cosine-weighted about the shading
+//! normal, so the Lambertian BRDF times cosine over the pdf is the albedo. Russian roulette
+//! starts at `RR_START` vertices. Lights are not geometry: a bounce ray passes through them
+//! and adds nothing, as the light arrives by next-event estimation.
+
+use crate::profile::Work;
+use crate::ray_origin::offset_origin;
+use crate::sampling::{Rng, stream_seed};
+use crate::scene::{Scene, SurfaceHit};
+use crate::shadowing::{LightShadowing, ShadowQuery};
+use glam::{Vec3, Vec3A};
+use obvhs::ray::Ray;
+use std::time::Instant;
+
+/// Depth of paths unless the scene or the command line says otherwise.
+pub const DEFAULT_MAX_DEPTH: u32 = 5;
+/// The depths accepted: 2 (direct light only) to 64 (Russian roulette ends nearly every
+/// path long before).
+pub const DEPTH_RANGE: std::ops::RangeInclusive<u32> = 2..=64;
+/// The error for a depth outside it.
+pub const DEPTH_RANGE_TEXT: &str = "must be in 2..=64 (2 = direct light only, 5 = three indirect bounces)";
+/// The first vertex (1 = the primary hit) after which Russian roulette may end a path.
+pub const RR_START: u32 = 3;
+
+/// Stream tags, so different uses of one pixel's seed never share random numbers.
+pub const TAG_SHADOW: u64 = 2;
+const TAG_BOUNCE: u64 = 3;
+
+/// A path's place: pixel (x, y), its index, the primary sample, the frame's seed.
+#[derive(Debug, Clone, Copy)]
+pub struct PathId {
+    pub pixel: [u32; 2],
+    pub pixel_index: u64,
+    pub sample: u64,
+    pub seed: u64,
+}
+
+impl PathId {
+    /// The seed of light `k`'s shadow query at vertex `vertex` (1 = the primary hit, whose
+    /// seeds are those of the direct-light renderer).
+    pub fn shadow_seed(&self, k: usize, vertex: u32) -> u64 {
+        let base = [self.seed, self.pixel_index, self.sample, k as u64, TAG_SHADOW];
+        if vertex == 1 {
+            stream_seed(&base)
+        } else {
+            stream_seed(&[base[0], base[1], base[2], base[3], base[4], vertex as u64])
+        }
+    }
+
+    /// The path's own stream of bounce directions and roulette.
+    pub fn bounce_rng(&self) -> Rng {
+        Rng::new(stream_seed(&[self.seed, self.pixel_index, self.sample, TAG_BOUNCE]))
+    }
+}
+
+/// Shadow queries per path vertex (index 0 = the primary hit): how many, the rays traced for
+/// them, how many traced none, and (profiling) their seconds.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct VertexQueries {
+    pub queries: u64,
+    pub rays: u64,
+    pub without_rays: u64,
+    pub seconds: f64,
+}
+
+/// Adds `b` into `a`, index by index.
+pub fn merge_vertex_queries(a: &mut Vec<VertexQueries>, b: &[VertexQueries]) {
+    if a.len() < b.len() {
+        a.resize(b.len(), VertexQueries::default());
+    }
+    for (x, y) in a.iter_mut().zip(b) {
+        x.queries += y.queries;
+        x.rays += y.rays;
+        x.without_rays += y.without_rays;
+        x.seconds += y.seconds;
+    }
+}
+
+/// One light's visibility at `hit` (vertex `vertex`), counted in `stats[vertex - 1]`.
+pub fn shadow_query(
+    scene: &Scene,
+    method: &dyn LightShadowing,
+    hit: &SurfaceHit,
+    id: &PathId,
+    k: usize,
+    vertex: u32,
+    profile: bool,
+    stats: &mut [VertexQueries],
+) -> f32 {
+    let q = ShadowQuery {
+        p: hit.p,
+        p_error: hit.p_error,
+        n_geom: hit.n_geom,
+        n_shading: hit.n_shading,
+        pixel: id.pixel,
+        seed: id.shadow_seed(k, vertex),
+    };
+    let (t0, w0) = (profile.then(Instant::now), Work::now());
+    let v = method.visibility(scene, &q);
+    debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", method.name());
+    let rays = Work::now().since(w0).rays;
+    let s = &mut stats[vertex as usize - 1];
+    s.queries += 1;
+    s.rays += rays;
+    s.without_rays += u64::from(rays == 0);
+    if let Some(t0) = t0 {
+        s.seconds += t0.elapsed().as_secs_f64();
+    }
+    v
+}
+
+/// A unit direction about `n`, cosine-distributed, from two uniform numbers.
+pub fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
+    let r = u1.sqrt();
+    let phi = std::f32::consts::TAU * u2;
+    let (t, b) = n.any_orthonormal_pair();
+    (r * phi.cos() * t + r * phi.sin() * b + (1.0 - u1).max(0.0).sqrt() * n).normalize()
+}
+
+/// The next vertex of a path leaving `hit`: a cosine-weighted bounce, None when it leaves
+/// through the geometric surface (a shading normal tilted past it) or hits nothing.
+pub fn bounce(scene: &Scene, hit: &SurfaceHit, rng: &mut Rng) -> Option<SurfaceHit> {
+    let (u1, u2) = (rng.next_f32(), rng.next_f32());
+    let d = cosine_direction(hit.n_shading, u1, u2);
+    if d.dot(hit.n_geom) <= 0.0 {
+        return None;
+    }
+    let origin = offset_origin(hit.p, hit.p_error, hit.n_geom, d);
+    scene.intersect(Ray::new(Vec3A::from(origin), Vec3A::from(d), 0.0, f32::INFINITY))
+}
+
+/// The radiance a path from the primary hit `primary` (albedo `albedo`) gathers from its
+/// bounces, vertices 2 to `max_depth - 1`, each with next-event estimation to every light:
+/// 0 when `max_depth <= 2`.
+#[allow(clippy::too_many_arguments)]
+pub fn indirect(
+    scene: &Scene,
+    methods: &[Box<dyn LightShadowing>],
+    primary: &SurfaceHit,
+    albedo: Vec3,
+    id: &PathId,
+    max_depth: u32,
+    profile: bool,
+    stats: &mut [VertexQueries],
+) -> Vec3 {
+    let mut rng = id.bounce_rng();
+    let (mut beta, mut hit, mut l) = (albedo, *primary, Vec3::ZERO);
+    for vertex in 2..max_depth {
+        let Some(next) = bounce(scene, &hit, &mut rng) else { break };
+        let a = scene.albedo(&next);
+        let mut direct = Vec3::ZERO;
+        for (k, light) in scene.lights.iter().enumerate() {
+            let e = light.irradiance_factor(next.p, next.n_shading);
+            if e <= 0.0 {
+                continue;
+            }
+            let v = shadow_query(scene, methods[k].as_ref(), &next, id, k, vertex, profile, stats);
+            direct += light.radiance * (e * v);
+        }
+        l += beta * a * direct * std::f32::consts::FRAC_1_PI;
+        beta *= a;
+        if vertex >= RR_START {
+            let survive = beta.max_element().min(0.95);
+            if survive <= 0.0 || rng.next_f32() >= survive {
+                break;
+            }
+            beta /= survive;
+        }
+        hit = next;
+    }
+    l
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cosine_directions_have_the_cosine_lobes_moments() {
+        // E[cos] = 2/3 and E[cos^2] = 1/2 under p = cos / pi; every direction above the plane.
+        let n = Vec3::new(0.3, -0.5, 0.8).normalize();
+        let mut rng = Rng::new(1);
+        let (mut m1, mut m2, count) = (0.0f64, 0.0f64, 200_000);
+        for _ in 0..count {
+            let d = cosine_direction(n, rng.next_f32(), rng.next_f32());
+            assert!((d.length() - 1.0).abs() < 1e-5);
+            let c = d.dot(n) as f64;
+            assert!(c >= 0.0);
+            m1 += c;
+            m2 += c * c;
+        }
+        assert!((m1 / count as f64 - 2.0 / 3.0).abs() < 3e-3, "{}", m1 / count as f64);
+        assert!((m2 / count as f64 - 0.5).abs() < 3e-3, "{}", m2 / count as f64);
+    }
+
+    #[test]
+    fn primary_shadow_seeds_are_the_direct_renderers() {
+        let id = PathId { pixel: [3, 4], pixel_index: 99, sample: 2, seed: 7 };
+        assert_eq!(id.shadow_seed(1, 1), stream_seed(&[7, 99, 2, 1, TAG_SHADOW]));
+        assert_ne!(id.shadow_seed(1, 2), id.shadow_seed(1, 1));
+        assert_ne!(id.shadow_seed(1, 2), id.shadow_seed(1, 3));
+    }
+}
