@@ -82,6 +82,7 @@ pub fn merge_vertex_queries(a: &mut Vec<VertexQueries>, b: &[VertexQueries]) {
 }
 
 /// One light's visibility at `hit` (vertex `vertex`), counted in `stats[vertex - 1]`.
+#[allow(clippy::too_many_arguments)]
 pub fn shadow_query(
     scene: &Scene,
     method: &dyn LightShadowing,
