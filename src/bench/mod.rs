@@ -71,6 +71,11 @@ pub struct BenchArgs {
     /// CI mode: 64 pixels wide, truth at 256 samples, a short sweep, one repeat.
     #[arg(long)]
     pub quick: bool,
+    /// Render every setting, and the truth, as paths of this depth (2 = direct light only).
+    /// Above 2 the truth traces the very same paths (same seed), so the image error is the
+    /// shadow method's along them, not the paths' own noise.
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(2..=64))]
+    pub max_depth: u32,
     /// No per-run progress lines on stderr.
     #[arg(long)]
     pub quiet: bool,

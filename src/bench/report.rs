@@ -112,6 +112,7 @@ pub(super) fn json(
         "threads": threads,
         "repeats": repeats,
         "quick": args.quick,
+        "max_depth": args.max_depth,
         "seed": args.seed,
         "scenes": results.iter().map(|s| serde_json::json!({
             "scene": s.stem, "path": s.path, "triangles": s.triangles, "width": s.width,

@@ -116,7 +116,7 @@ pub(super) fn bench_scene(
         seed: args.seed,
         mask_budget_bytes,
         profile: false,
-        max_depth: 2,
+        max_depth: args.max_depth,
     };
     let scene_dir = out.join(stem);
     std::fs::create_dir_all(&scene_dir)
@@ -332,6 +332,7 @@ mod tests {
             quick,
             quiet: true,
             max_run_seconds: 10.0,
+            max_depth: 2,
         };
         assert_eq!(bench_size(&args(None, None, false), 640, 480), (320, 240));
         assert_eq!(bench_size(&args(None, None, false), 200, 100), (200, 100));

@@ -50,8 +50,15 @@ struct Entry {
     spp: u32,
     seed: u64,
     samples: u32,
+    /// Path depth (entries written before paths have none: 2).
+    #[serde(default = "direct_only")]
+    max_depth: u32,
     lights: usize,
     seconds: f64,
+}
+
+fn direct_only() -> u32 {
+    2
 }
 
 /// The cache key of a scene (file `scene_path`, parsed as `file`) under these settings.
@@ -78,6 +85,10 @@ pub fn cache_key(
         [settings.width as u64, settings.height as u64, settings.spp as u64, settings.seed, samples as u64]
     {
         h.write_u64(v);
+    }
+    // Hashed only above 2, so that direct-light entries keep their keys.
+    if settings.max_depth > 2 {
+        h.write_u64(settings.max_depth as u64);
     }
     Ok(format!("{:016x}", h.finish()))
 }
@@ -144,6 +155,7 @@ pub fn truth(
         spp: settings.spp,
         seed: settings.seed,
         samples,
+        max_depth: settings.max_depth,
         lights,
         seconds: 0.0,
     };
@@ -163,7 +175,11 @@ pub fn truth(
         return Ok(t);
     }
 
-    let truth_settings = RenderSettings { seed: settings.seed ^ TRUTH_SEED_SALT, ..*settings };
+    // Direct light: the truth's own seed, so its light samples are not the runs'. Paths:
+    // the runs' seed, so that the truth follows the very same paths (the bounces do not
+    // depend on the shadow method) and the error is the shadows' along them.
+    let seed = if settings.max_depth > 2 { settings.seed } else { settings.seed ^ TRUTH_SEED_SALT };
+    let truth_settings = RenderSettings { seed, ..*settings };
     let mut methods: Vec<Box<dyn renderer::LightShadowing>> =
         (0..lights).map(|_| Box::new(Traced::new(TracedParams::plain(samples))) as _).collect();
     let frame: Frame = render(scene, &mut methods, &truth_settings, &|_| {})

@@ -106,6 +106,9 @@ pub fn render_visibility_with(
         width: Some(size),
         height: Some(size),
         spp: Some(1),
+        // Direct light only: these renders hold the visibility of what the camera sees, and
+        // the methods' counters are then those of the primary hits alone.
+        max_depth: Some(2),
         out: Some(out.clone()),
         aov: true,
         quiet: true,
