@@ -367,7 +367,7 @@ fn build_report(
             write: phases.write.as_secs_f64(),
             total: phases.total.as_secs_f64(),
         },
-        profile: frame.costs.as_deref().map(report::ProfileTotals::of),
+        profile: frame.costs.as_deref().map(|c| report::ProfileTotals::of(c, &frame.vertex_queries)),
         counters: frame.counters.clone(),
         outputs: outputs.iter().map(|p| p.display().to_string()).collect(),
         warnings: scene.warnings.iter().chain(&frame.warnings).cloned().collect(),

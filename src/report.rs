@@ -29,12 +29,16 @@ pub struct ProfileTotals {
     pub rays: u64,
     pub shafts: u64,
     pub lookups: u64,
+    /// Seconds inside the shadow queries, per path vertex (first: the primary hits), summed
+    /// over threads.
+    pub shadow_s_by_vertex: Vec<f64>,
 }
 
 impl ProfileTotals {
-    pub fn of(costs: &[renderer::profile::PixelCost]) -> Self {
+    pub fn of(costs: &[renderer::profile::PixelCost], vertices: &[renderer::path::VertexQueries]) -> Self {
         let (shading_s, w) = renderer::profile::totals(costs);
-        ProfileTotals { shading_s, rays: w.rays, shafts: w.shafts, lookups: w.lookups }
+        let shadow_s_by_vertex = vertices.iter().map(|v| v.seconds).collect();
+        ProfileTotals { shading_s, rays: w.rays, shafts: w.shafts, lookups: w.lookups, shadow_s_by_vertex }
     }
 }
 

@@ -107,3 +107,50 @@ fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
         assert!(rc < rp, "{}: culled {rc} rays, plain {rp}", path.display());
     }
 }
+
+/// Every shared scene renders with indirect light under every shadow method, through the
+/// command line as users run it (`--max-depth 5`, 2 spp here, small), the same bytes with 1
+/// and 2 threads; the paths' bounces add light, and each method answers secondary queries.
+#[test]
+fn every_shared_scene_path_traces_with_every_method_deterministically() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/gltf");
+    let mut names: Vec<PathBuf> = std::fs::read_dir(&root)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    names.sort();
+    let dir = std::env::temp_dir().join(format!("penumbra-paths-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for path in &names {
+        for method in ["traced", "edge_table", "depth_march", "pcss", "none"] {
+            let run = |threads: u32| {
+                let out = dir.join(format!("{method}-{threads}.png"));
+                let args = penumbra::RenderArgs {
+                    scene: Some(path.clone()),
+                    shadows: Some(method.into()),
+                    samples: Some(16),
+                    width: Some(32),
+                    height: Some(24),
+                    spp: Some(2),
+                    max_depth: Some(5),
+                    threads: Some(threads),
+                    out: Some(out.clone()),
+                    quiet: true,
+                    ..Default::default()
+                };
+                let outcome =
+                    penumbra::run_render(&args).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                (std::fs::read(out.with_extension("exr")).unwrap(), outcome.report.counters)
+            };
+            let ((one, counters), (two, _)) = (run(1), run(2));
+            assert!(one == two, "{} {method}: 1 and 2 threads differ", path.display());
+            assert!(
+                counters["shadow_queries_vertex_2"] > 0,
+                "{} {method}: no secondary query",
+                path.display()
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -59,12 +59,14 @@ impl PathId {
 }
 
 /// Shadow queries per path vertex (index 0 = the primary hit): how many, the rays traced for
-/// them, how many traced none, and (profiling) their seconds.
+/// them, how many traced none, how many a depth-map method could not answer from its map
+/// ([`crate::profile::count_fallback`]), and (profiling) their seconds.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct VertexQueries {
     pub queries: u64,
     pub rays: u64,
     pub without_rays: u64,
+    pub fallbacks: u64,
     pub seconds: f64,
 }
 
@@ -77,6 +79,7 @@ pub fn merge_vertex_queries(a: &mut Vec<VertexQueries>, b: &[VertexQueries]) {
         x.queries += y.queries;
         x.rays += y.rays;
         x.without_rays += y.without_rays;
+        x.fallbacks += y.fallbacks;
         x.seconds += y.seconds;
     }
 }
@@ -104,11 +107,12 @@ pub fn shadow_query(
     let (t0, w0) = (profile.then(Instant::now), Work::now());
     let v = method.visibility(scene, &q);
     debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", method.name());
-    let rays = Work::now().since(w0).rays;
+    let work = Work::now().since(w0);
     let s = &mut stats[vertex as usize - 1];
     s.queries += 1;
-    s.rays += rays;
-    s.without_rays += u64::from(rays == 0);
+    s.rays += work.rays;
+    s.without_rays += u64::from(work.rays == 0);
+    s.fallbacks += work.fallbacks;
     if let Some(t0) = t0 {
         s.seconds += t0.elapsed().as_secs_f64();
     }

@@ -15,6 +15,7 @@ thread_local! {
     static RAYS: Cell<u64> = const { Cell::new(0) };
     static SHAFTS: Cell<u64> = const { Cell::new(0) };
     static LOOKUPS: Cell<u64> = const { Cell::new(0) };
+    static FALLBACKS: Cell<u64> = const { Cell::new(0) };
 }
 
 /// One traced ray (any-hit or closest-hit query through the BVH).
@@ -35,18 +36,31 @@ pub fn count_lookups(n: u64) {
     LOOKUPS.with(|c| c.set(c.get() + n));
 }
 
+/// One query a depth-map method did not answer from its map (off it, grazed, or below its
+/// horizon rule) and handed to traced rays.
+#[inline]
+pub fn count_fallback() {
+    FALLBACKS.with(|c| c.set(c.get() + 1));
+}
+
 /// The calling thread's work counters so far.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Work {
     pub rays: u64,
     pub shafts: u64,
     pub lookups: u64,
+    pub fallbacks: u64,
 }
 
 impl Work {
     /// This thread's counts since it started.
     pub fn now() -> Self {
-        Work { rays: RAYS.with(Cell::get), shafts: SHAFTS.with(Cell::get), lookups: LOOKUPS.with(Cell::get) }
+        Work {
+            rays: RAYS.with(Cell::get),
+            shafts: SHAFTS.with(Cell::get),
+            lookups: LOOKUPS.with(Cell::get),
+            fallbacks: FALLBACKS.with(Cell::get),
+        }
     }
 
     /// The work done between `earlier` and `self` (both of this thread).
@@ -55,6 +69,7 @@ impl Work {
             rays: self.rays - earlier.rays,
             shafts: self.shafts - earlier.shafts,
             lookups: self.lookups - earlier.lookups,
+            fallbacks: self.fallbacks - earlier.fallbacks,
         }
     }
 }
@@ -77,6 +92,7 @@ pub fn totals(costs: &[PixelCost]) -> (f64, Work) {
                 rays: w.rays + c.work.rays,
                 shafts: w.shafts + c.work.shafts,
                 lookups: w.lookups + c.work.lookups,
+                fallbacks: w.fallbacks + c.work.fallbacks,
             },
         )
     })
@@ -93,8 +109,9 @@ mod tests {
         count_ray();
         count_shaft();
         count_lookups(5);
+        count_fallback();
         let done = Work::now().since(before);
-        assert_eq!(done, Work { rays: 2, shafts: 1, lookups: 5 });
+        assert_eq!(done, Work { rays: 2, shafts: 1, lookups: 5, fallbacks: 1 });
         // Another thread's work does not show on this one.
         let here = Work::now();
         std::thread::spawn(|| count_lookups(1000)).join().unwrap();

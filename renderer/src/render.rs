@@ -137,6 +137,7 @@ pub fn render(
             counters.insert(format!("shadow_queries_vertex_{}", i + 1), v.queries);
             counters.insert(format!("shadow_rays_vertex_{}", i + 1), v.rays);
             counters.insert(format!("shadow_queries_without_rays_vertex_{}", i + 1), v.without_rays);
+            counters.insert(format!("shadow_fallbacks_vertex_{}", i + 1), v.fallbacks);
         }
     }
     Ok(Frame {

@@ -144,7 +144,7 @@ mod tests {
     use renderer::profile::Work;
 
     fn pixel(time_s: f32, rays: u64, shafts: u64, lookups: u64) -> PixelCost {
-        PixelCost { time_s, work: Work { rays, shafts, lookups } }
+        PixelCost { time_s, work: Work { rays, shafts, lookups, fallbacks: 0 } }
     }
 
     #[test]

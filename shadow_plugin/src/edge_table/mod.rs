@@ -389,6 +389,7 @@ impl EdgeTable {
             Some(mp) => (mp.offset, mp.z),
             None => {
                 c.points_off_map.fetch_add(1, Ordering::Relaxed);
+                renderer::profile::count_fallback();
                 (Vec2::ZERO, map.near.frame.light_from_world(q.p).z.max(0.0))
             }
         };
