@@ -319,3 +319,24 @@ fn sigterm_while_writing_leaves_no_temporary_file() {
 fn sigint_while_writing_leaves_no_temporary_file() {
     interrupted_while_writing("INT", 130);
 }
+
+#[test]
+fn a_path_depth_outside_two_to_sixty_four_is_an_error() {
+    let dir = TempDir::new("bounds-depth");
+    let scene = format!("{CAMERA_AND_LIGHT}{FLOOR}");
+    for depth in ["0", "1", "65"] {
+        assert_error(
+            &render(&dir, &scene, &["--max-depth", depth]),
+            &dir,
+            &["s.toml: --max-depth: ", "2..=64"],
+        );
+    }
+    let scene = format!("{CAMERA_AND_LIGHT}{FLOOR}[integrator]\nmax_depth = 1\n");
+    assert_error(
+        &render(&dir, &scene, &[]),
+        &dir,
+        &["s.toml: integrator.max_depth: ", "2 = direct light only"],
+    );
+    let scene = format!("{CAMERA_AND_LIGHT}{FLOOR}[integrator]\nmax_dept = 3\n");
+    assert_error(&render(&dir, &scene, &[]), &dir, &["s.toml: integrator.max_dept"]);
+}
