@@ -6,6 +6,8 @@ use plotters::prelude::*;
 /// Narrowest heat map drawn: a smaller image is scaled up by a whole factor (nearest pixel)
 /// so that the legend's labels fit and the map reads on a page.
 pub const MIN_WIDTH: u32 = 320;
+/// Largest side a heat map is scaled up to.
+const MAX_SIDE: u32 = 4096;
 /// Legend band under the map, in pixels.
 const LEGEND_HEIGHT: u32 = 56;
 /// Colour of pixels with no value (no primary hit): outside the ramp.
@@ -66,20 +68,23 @@ pub fn log_heat_map_png(
     values: &[Option<f64>],
     title: &str,
 ) -> Result<Vec<u8>, String> {
-    assert_eq!(values.len(), (width * height) as usize);
-    let scale = MIN_WIDTH.div_ceil(width).max(1);
+    assert_eq!(values.len(), width as usize * height as usize);
+    // Scaled up only as far as the image stays within MAX_SIDE pixels a side (a 1-pixel-wide
+    // image 16384 high is drawn as it is).
+    let scale = MIN_WIDTH.div_ceil(width).max(1).min((MAX_SIDE / height.max(1)).max(1));
     let (w, h) = (width * scale, height * scale + LEGEND_HEIGHT);
-    let mut buf = vec![255u8; (w * h * 3) as usize];
+    let mut buf = vec![255u8; w as usize * h as usize * 3];
     let range = log_range(values);
-    for y in 0..height * scale {
-        for x in 0..w {
-            let v = values[((y / scale) * width + x / scale) as usize];
+    let (ws, wu) = (width as usize, w as usize);
+    for y in 0..(height * scale) as usize {
+        for x in 0..wu {
+            let v = values[(y / scale as usize) * ws + x / scale as usize];
             let c = match (v, range) {
                 (None, _) => MISS,
                 (Some(v), Some(r)) => ramp(log_position(v, r)),
                 (Some(_), None) => ramp(0.0),
             };
-            let i = ((y * w + x) * 3) as usize;
+            let i = (y * wu + x) * 3;
             buf[i..i + 3].copy_from_slice(&c);
         }
     }

@@ -108,28 +108,28 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
         progress.phase("writing the outputs", 0);
         let t_write = Instant::now();
         let mut staged = StagedFiles::default();
-        let mut outputs = tracing::info_span!("write").in_scope(|| {
+        let outputs = tracing::info_span!("write").in_scope(|| {
             let mut outputs = stage_images(&plan, &frame, args.aov, &mut staged)?;
             if let Some(costs) = &frame.costs {
                 outputs.extend(stage_profile(&plan, &frame, costs, &mut staged)?);
             }
             Ok::<_, CliError>(outputs)
         })?;
-        let write = t_write.elapsed();
-        let json_path = plan.png.with_extension("json");
-        outputs.push(json_path.clone());
-        let phases = Phases { loaded, write, total: t_total.elapsed() };
-        Ok::<_, CliError>((scene, frame, staged, outputs, json_path, phases))
+        Ok::<_, CliError>((scene, frame, staged, outputs, loaded, t_write))
     });
     progress.finish();
-    let (scene, frame, mut staged, mut outputs, json_path, phases) = outcome?;
+    let (scene, frame, mut staged, mut outputs, loaded, t_write) = outcome?;
     drop(pool);
     let io = |e: String| SceneError::new(&plan.png, "--out", e);
+    // The trace ends here (every span closed) and is staged with the rest: part of `write`.
     if let Some(trace) = trace {
         let path = plan.png.with_extension("trace.json");
         staged.bytes(&path, &trace.finish()).map_err(io)?;
-        outputs.insert(outputs.len() - 1, path);
+        outputs.push(path);
     }
+    let json_path = plan.png.with_extension("json");
+    outputs.push(json_path.clone());
+    let phases = Phases { loaded, write: t_write.elapsed(), total: t_total.elapsed() };
     let report = build_report(&plan, args.seed, threads, &scene, &frame, &outputs, phases);
     let json = serde_json::to_vec_pretty(&report).expect("the report serialises");
     staged.bytes(&json_path, &json).map_err(io)?;
@@ -263,6 +263,7 @@ fn render_frame(
         mask_budget_bytes,
         profile,
         max_depth: plan.max_depth,
+        shadow_salt: 0,
     };
     render(scene, &mut methods, &settings, &|p| progress.report(p))
         .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))

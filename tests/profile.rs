@@ -157,6 +157,7 @@ fn penumbra_over_lit(method: &str) -> (f64, usize, usize) {
         mask_budget_bytes: 1 << 30,
         profile: true,
         max_depth: 2,
+        shadow_salt: 0,
     };
     let frame = renderer::render(&scene, &mut methods, &settings, &|_| {}).unwrap();
     let costs: &[PixelCost] = frame.costs.as_deref().unwrap();

@@ -32,6 +32,7 @@ fn visibility(scene: &Scene) -> Vec<f32> {
         mask_budget_bytes: 1 << 30,
         profile: false,
         max_depth: 2,
+        shadow_salt: 0,
     };
     let frame = render(scene, &mut methods, &settings, &|_| {}).unwrap();
     frame.visibility[0].clone()
@@ -101,6 +102,7 @@ fn far_geometry_is_counted_and_warned_about_with_its_precision() {
         mask_budget_bytes: 1 << 30,
         profile: false,
         max_depth: 2,
+        shadow_salt: 0,
     };
     let frame = render(&mid, &mut methods, &settings, &|_| {}).unwrap();
     let line = frame.warnings.iter().find(|w| w.starts_with("the visible part")).expect("a precision line");

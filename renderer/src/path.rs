@@ -5,8 +5,10 @@
 //! `max_depth = 2` is direct light only (no bounce), and `max_depth = 5` adds three
 //! indirect bounces (pbrt's default depth). A bounce is cosine-weighted about the shading
 //! normal, so the Lambertian BRDF times cosine over the pdf is the albedo. Russian roulette
-//! starts at `RR_START` vertices. Lights are not geometry: a bounce ray passes through them
-//! and adds nothing, as the light arrives by next-event estimation.
+//! starts at `RR_START` vertices. A bounce ray that meets a light adds nothing: `[[light]]`
+//! rectangles are not geometry (it passes through), emissive glTF rectangles keep their
+//! triangles (it reflects off them by their albedo); emission arrives by next-event
+//! estimation only.
 
 use crate::profile::Work;
 use crate::ray_origin::offset_origin;
@@ -38,13 +40,15 @@ pub struct PathId {
     pub pixel_index: u64,
     pub sample: u64,
     pub seed: u64,
+    /// XORed into the seed of the shadow queries only ([`crate::RenderSettings::shadow_salt`]).
+    pub shadow_salt: u64,
 }
 
 impl PathId {
     /// The seed of light `k`'s shadow query at vertex `vertex` (1 = the primary hit, whose
     /// seeds are those of the direct-light renderer).
     pub fn shadow_seed(&self, k: usize, vertex: u32) -> u64 {
-        let base = [self.seed, self.pixel_index, self.sample, k as u64, TAG_SHADOW];
+        let base = [self.seed ^ self.shadow_salt, self.pixel_index, self.sample, k as u64, TAG_SHADOW];
         if vertex == 1 {
             stream_seed(&base)
         } else {
@@ -205,7 +209,7 @@ mod tests {
 
     #[test]
     fn primary_shadow_seeds_are_the_direct_renderers() {
-        let id = PathId { pixel: [3, 4], pixel_index: 99, sample: 2, seed: 7 };
+        let id = PathId { pixel: [3, 4], pixel_index: 99, sample: 2, seed: 7, shadow_salt: 0 };
         assert_eq!(id.shadow_seed(1, 1), stream_seed(&[7, 99, 2, 1, TAG_SHADOW]));
         assert_ne!(id.shadow_seed(1, 2), id.shadow_seed(1, 1));
         assert_ne!(id.shadow_seed(1, 2), id.shadow_seed(1, 3));

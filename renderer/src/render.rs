@@ -29,6 +29,9 @@ pub struct RenderSettings {
     /// Longest path, counted as Mitsuba 3 counts it ([`crate::path`]): 2 = direct light
     /// only, 5 = three indirect bounces.
     pub max_depth: u32,
+    /// XORed into the seeds of the shadow queries only (0 normally): a render with another
+    /// salt traces the same paths with other light samples (the bench's truth).
+    pub shadow_salt: u64,
 }
 
 /// What [`render`] reports as it goes, for a progress display.
@@ -254,7 +257,8 @@ fn first_bounces(scene: &Scene, hits: &[Option<SurfaceHit>], settings: &RenderSe
                 .filter_map(|x| {
                     let hit = row[x * spp].as_ref()?;
                     let pixel_index = (y * w + x) as u64;
-                    let id = PathId { pixel: [x as u32, y as u32], pixel_index, sample: 0, seed };
+                    let id =
+                        PathId { pixel: [x as u32, y as u32], pixel_index, sample: 0, seed, shadow_salt: 0 };
                     let next = crate::path::bounce(scene, hit, &mut id.bounce_rng())?;
                     Some(VisiblePoint {
                         p: next.p,
@@ -415,7 +419,7 @@ fn shade_pixel(
     vis_px: &mut [f32],
     tally: &mut Tally,
 ) -> Vec3 {
-    let RenderSettings { width, spp, seed, profile, max_depth, .. } = *settings;
+    let RenderSettings { width, spp, seed, profile, max_depth, shadow_salt, .. } = *settings;
     let (w, spp_us) = (width as usize, spp as usize);
     let pixel_index = (y * w + x) as u64;
     // The primary hits' direct light, summed as the direct-light renderer sums it (so
@@ -428,7 +432,7 @@ fn shade_pixel(
         hit_count += 1;
         tally.points += 1;
         let albedo = scene.albedo(hit);
-        let id = PathId { pixel: [x as u32, y as u32], pixel_index, sample: s as u64, seed };
+        let id = PathId { pixel: [x as u32, y as u32], pixel_index, sample: s as u64, seed, shadow_salt };
         for (k, light) in scene.lights.iter().enumerate() {
             let e = light.irradiance_factor(hit.p, hit.n_shading);
             if e <= 0.0 {

@@ -72,7 +72,13 @@ pub fn split(costs: &[PixelCost], shadow_cost: f64, prepare: f64, threads: usize
 /// time, non-negative; a count that never varies (a method with no lookups) costs 0.
 pub fn fit(costs: &[PixelCost]) -> [f64; 4] {
     let x = |c: &PixelCost| [1.0, c.work.rays as f64, c.work.shafts as f64, c.work.lookups as f64];
+    // A count that never varies over the pixels (a method with no lookups, or none of its
+    // queries testing a shaft) is confounded with the intercept: it costs 0.
     let mut active = [true; 4];
+    for (k, on) in active.iter_mut().enumerate().skip(1) {
+        let first = costs.first().map_or(0.0, |c| x(c)[k]);
+        *on = costs.iter().any(|c| x(c)[k] != first);
+    }
     for _ in 0..4 {
         // Normal equations over the active columns.
         let idx: Vec<usize> = (0..4).filter(|&k| active[k]).collect();
@@ -88,7 +94,8 @@ pub fn fit(costs: &[PixelCost]) -> [f64; 4] {
             }
         }
         let Some(sol) = solve(a, b) else {
-            // Singular: a column constant or all zero. Drop the last count still active.
+            // Singular all the same (counts proportional to each other): drop the last count
+            // still active.
             match idx.iter().rev().find(|&&k| k > 0) {
                 Some(&k) => {
                     active[k] = false;
@@ -164,6 +171,16 @@ mod tests {
         let sum: f64 = s.parts().iter().map(|p| p.1).sum();
         assert!((sum - 1.0).abs() < 1e-9, "{s:?}");
         assert!(s.rays > 0.0 && s.shafts > 0.0 && s.lookups > 0.0 && s.rest > 0.0, "{s:?}");
+    }
+
+    #[test]
+    fn lookups_are_fitted_when_rays_and_shafts_are_all_zero() {
+        // pcss: no rays, no shafts, 10 ns per lookup.
+        let costs: Vec<PixelCost> =
+            (0..100u64).map(|i| pixel((1e-6 + 1e-8 * (i % 37) as f64) as f32, 0, 0, i % 37)).collect();
+        let c = fit(&costs);
+        assert!((c[3] - 1e-8).abs() < 1e-3 * 1e-8, "{c:?}");
+        assert_eq!((c[1], c[2]), (0.0, 0.0));
     }
 
     #[test]

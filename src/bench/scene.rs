@@ -117,6 +117,7 @@ pub(super) fn bench_scene(
         mask_budget_bytes,
         profile: false,
         max_depth: args.max_depth,
+        shadow_salt: 0,
     };
     let scene_dir = out.join(stem);
     std::fs::create_dir_all(&scene_dir)

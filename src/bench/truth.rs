@@ -88,6 +88,9 @@ pub fn cache_key(
     }
     // Hashed only above 2, so that direct-light entries keep their keys.
     if settings.max_depth > 2 {
+        // "salted": the path truth's light samples are its own (an earlier path truth shared
+        // the runs').
+        h.write(b"paths, salted");
         h.write_u64(settings.max_depth as u64);
     }
     Ok(format!("{:016x}", h.finish()))
@@ -175,11 +178,14 @@ pub fn truth(
         return Ok(t);
     }
 
-    // Direct light: the truth's own seed, so its light samples are not the runs'. Paths:
-    // the runs' seed, so that the truth follows the very same paths (the bounces do not
-    // depend on the shadow method) and the error is the shadows' along them.
-    let seed = if settings.max_depth > 2 { settings.seed } else { settings.seed ^ TRUTH_SEED_SALT };
-    let truth_settings = RenderSettings { seed, ..*settings };
+    // Light samples of its own, never the runs' (their error would read too low). Direct
+    // light: its own seed. Paths: the runs' seed, so that the truth follows the very same
+    // paths (the bounces do not depend on the shadow method), and its own shadow salt.
+    let truth_settings = if settings.max_depth > 2 {
+        RenderSettings { shadow_salt: settings.shadow_salt ^ TRUTH_SEED_SALT, ..*settings }
+    } else {
+        RenderSettings { seed: settings.seed ^ TRUTH_SEED_SALT, ..*settings }
+    };
     let mut methods: Vec<Box<dyn renderer::LightShadowing>> =
         (0..lights).map(|_| Box::new(Traced::new(TracedParams::plain(samples))) as _).collect();
     let frame: Frame = render(scene, &mut methods, &truth_settings, &|_| {})

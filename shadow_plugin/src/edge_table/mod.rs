@@ -389,7 +389,6 @@ impl EdgeTable {
             Some(mp) => (mp.offset, mp.z),
             None => {
                 c.points_off_map.fetch_add(1, Ordering::Relaxed);
-                renderer::profile::count_fallback();
                 (Vec2::ZERO, map.near.frame.light_from_world(q.p).z.max(0.0))
             }
         };
@@ -403,6 +402,11 @@ impl EdgeTable {
             c.points_horizon_traced.fetch_add(1, Ordering::Relaxed);
             return self.fallback.trace(scene, q);
         };
+        if located.is_none() {
+            // Off the map: every ray traced (once per query: the horizon's fallback above
+            // counts its own).
+            renderer::profile::count_fallback();
+        }
         if !traced_only {
             c.rays_clear.fetch_add(stats.rays_clear, Ordering::Relaxed);
             c.rays_blocked.fetch_add(stats.rays_blocked, Ordering::Relaxed);
