@@ -16,6 +16,13 @@ pub const MISS: [u8; 3] = [40, 110, 160];
 const RAMP: [[f32; 3]; 5] =
     [[0.0, 0.0, 4.0], [87.0, 16.0, 110.0], [188.0, 55.0, 84.0], [249.0, 142.0, 9.0], [252.0, 255.0, 164.0]];
 
+/// The whole factor a `width` x `height` map is scaled up by to be at least [`MIN_WIDTH`]
+/// wide, as far as it stays within `MAX_SIDE` pixels a side (a 1-pixel-wide image 16384
+/// high is drawn as it is).
+pub fn readable_scale(width: u32, height: u32) -> u32 {
+    MIN_WIDTH.div_ceil(width.max(1)).max(1).min((MAX_SIDE / height.max(1)).max(1))
+}
+
 /// The ramp's colour at t in [0, 1].
 pub fn ramp(t: f64) -> [u8; 3] {
     let x = t.clamp(0.0, 1.0) as f32 * (RAMP.len() - 1) as f32;
@@ -69,9 +76,7 @@ pub fn log_heat_map_png(
     title: &str,
 ) -> Result<Vec<u8>, String> {
     assert_eq!(values.len(), width as usize * height as usize);
-    // Scaled up only as far as the image stays within MAX_SIDE pixels a side (a 1-pixel-wide
-    // image 16384 high is drawn as it is).
-    let scale = MIN_WIDTH.div_ceil(width).max(1).min((MAX_SIDE / height.max(1)).max(1));
+    let scale = readable_scale(width, height);
     let (w, h) = (width * scale, height * scale + LEGEND_HEIGHT);
     let mut buf = vec![255u8; w as usize * h as usize * 3];
     let range = log_range(values);

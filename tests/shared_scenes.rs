@@ -63,13 +63,8 @@ scene_tests! {
     toy_car => "toy-car.toml",
 }
 
-/// Shaft culling (`[shadows.traced] shaft_culling`, on by default) is exact: on every shared
-/// scene, culled and plain traced give the same visibility bits at every pixel, and culling
-/// skips rays (64x48, 1024 samples: every level of the light's split is tested, down to
-/// its 4x4 parts of 64 samples).
-#[test]
-fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
-    use renderer::{LightShadowing, RenderSettings, Scene, SceneFile, Traced, TracedParams, render};
+/// Every scene file in `scenes/gltf`, sorted (at least the ten shared scenes).
+fn shared_scene_files() -> Vec<PathBuf> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/gltf");
     let mut names: Vec<PathBuf> = std::fs::read_dir(&root)
         .unwrap()
@@ -78,6 +73,17 @@ fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
         .collect();
     names.sort();
     assert!(names.len() >= 10, "{names:?}");
+    names
+}
+
+/// Shaft culling (`[shadows.traced] shaft_culling`, on by default) is exact: on every shared
+/// scene, culled and plain traced give the same visibility bits at every pixel, and culling
+/// skips rays (64x48, 1024 samples: every level of the light's split is tested, down to
+/// its 4x4 parts of 64 samples).
+#[test]
+fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
+    use renderer::{LightShadowing, RenderSettings, Scene, SceneFile, Traced, TracedParams, render};
+    let names = shared_scene_files();
     let settings = RenderSettings {
         width: 64,
         height: 48,
@@ -114,13 +120,7 @@ fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
 /// and 2 threads; the paths' bounces add light, and each method answers secondary queries.
 #[test]
 fn every_shared_scene_path_traces_with_every_method_deterministically() {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/gltf");
-    let mut names: Vec<PathBuf> = std::fs::read_dir(&root)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    names.sort();
+    let names = shared_scene_files();
     let dir = std::env::temp_dir().join(format!("penumbra-paths-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     for path in &names {

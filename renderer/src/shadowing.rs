@@ -37,6 +37,12 @@ pub struct VisiblePoint {
     pub n_shading: Vec3,
 }
 
+impl From<&crate::SurfaceHit> for VisiblePoint {
+    fn from(hit: &crate::SurfaceHit) -> Self {
+        VisiblePoint { p: hit.p, p_error: hit.p_error, n_geom: hit.n_geom, n_shading: hit.n_shading }
+    }
+}
+
 /// One visibility question: the fraction of the light (its part above the tangent plane of
 /// `n_shading`) that `p` sees unoccluded.
 #[derive(Debug, Clone, Copy, PartialEq)]

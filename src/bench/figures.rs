@@ -41,7 +41,7 @@ fn heat_map(reach: &[Vec<f32>], truth: &[Vec<f32>], ours: &[Vec<f32>]) -> Vec<Ve
 /// `rgb` (`width` x `height`) scaled up by a whole factor, nearest pixel, to at least
 /// [`heat::MIN_WIDTH`] wide: (pixels, width, height).
 fn readable(rgb: &[Vec3], width: u32, height: u32) -> (Vec<Vec3>, u32, u32) {
-    let k = heat::MIN_WIDTH.div_ceil(width).max(1).min((4096 / height.max(1)).max(1));
+    let k = heat::readable_scale(width, height);
     let (w, h) = (width * k, height * k);
     let out = (0..h * w).map(|i| rgb[((i / w / k) * width + (i % w) / k) as usize]).collect();
     (out, w, h)
