@@ -99,7 +99,7 @@
 use criterion::{BatchSize, BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::ray::Ray;
-use renderer::sampling::{Rng, stream_seed};
+use renderer::util::sampling::{Rng, stream_seed};
 use renderer::{LightShadowing, PrepareContext, Scene, SceneFile, ShadowQuery, VisiblePoint};
 use shadow_plugin::bits::{MAX_WORDS, count, words};
 use shadow_plugin::depth_map::MapPoint;

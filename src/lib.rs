@@ -13,7 +13,7 @@ pub mod report;
 use crate::config::ShadowsConfig;
 use crate::progress::PhaseProgress;
 use crate::report::{RunReport, Timings};
-use renderer::output::StagedFiles;
+use renderer::util::output::StagedFiles;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod, render};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -174,8 +174,12 @@ fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
     let (width, height, spp) = image_size(args, &file, &scene_path)?;
     let png = png_path(args, &scene_path)?;
     let max_depth = args.max_depth.unwrap_or(file.integrator.max_depth);
-    if !renderer::path::DEPTH_RANGE.contains(&max_depth) {
-        return Err(SceneError::new(&scene_path, "--max-depth", renderer::path::DEPTH_RANGE_TEXT));
+    if !renderer::integrator::path::DEPTH_RANGE.contains(&max_depth) {
+        return Err(SceneError::new(
+            &scene_path,
+            "--max-depth",
+            renderer::integrator::path::DEPTH_RANGE_TEXT,
+        ));
     }
     Ok(RenderPlan { scene_path, file, shadows, width, height, spp, max_depth, png })
 }
@@ -204,7 +208,7 @@ fn image_size(args: &RenderArgs, file: &SceneFile, scene_path: &Path) -> Result<
     let width = args.width.unwrap_or(file.image.width);
     let height = args.height.unwrap_or(file.image.height);
     let spp = args.spp.unwrap_or(file.image.spp);
-    let limit = renderer::config::MAX_IMAGE_SIDE;
+    let limit = renderer::load::config::MAX_IMAGE_SIDE;
     for (flag, v) in [("--width", width), ("--height", height)] {
         if v == 0 || v > limit {
             return Err(SceneError::new(scene_path, flag, format!("must be in 1..={limit}, got {v}")));
@@ -218,11 +222,11 @@ fn image_size(args: &RenderArgs, file: &SceneFile, scene_path: &Path) -> Result<
             format!("width x height x spp must be at most {MAX_PRIMARY_SAMPLES} (about 6 GB of samples)"),
         ));
     }
-    if spp == 0 || spp > renderer::config::MAX_SPP {
+    if spp == 0 || spp > renderer::load::config::MAX_SPP {
         return Err(SceneError::new(
             scene_path,
             "--spp",
-            format!("must be in 1..={}", renderer::config::MAX_SPP),
+            format!("must be in 1..={}", renderer::load::config::MAX_SPP),
         ));
     }
     Ok((width, height, spp))
@@ -280,7 +284,7 @@ fn stage_images(
     let (png, width, height) = (&plan.png, plan.width, plan.height);
     // A NaN or an infinity never reaches a file: refuse before anything is staged.
     let exr = png.with_extension("exr");
-    renderer::output::check_finite(&frame.radiance).map_err(|e| {
+    renderer::util::output::check_finite(&frame.radiance).map_err(|e| {
         SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
     })?;
     if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
@@ -316,7 +320,7 @@ fn stage_images(
 fn stage_profile(
     plan: &RenderPlan,
     frame: &Frame,
-    costs: &[renderer::profile::PixelCost],
+    costs: &[renderer::util::profile::PixelCost],
     staged: &mut StagedFiles,
 ) -> Result<Vec<PathBuf>, CliError> {
     let (exr, png) = (plan.png.with_extension("cost.exr"), plan.png.with_extension("cost.png"));
@@ -385,7 +389,7 @@ pub fn exit_cleanly_on_signals() {
     };
     std::thread::spawn(move || {
         if let Some(signal) = signals.forever().next() {
-            let removed = renderer::output::remove_staged_files();
+            let removed = renderer::util::output::remove_staged_files();
             let name = if signal == SIGINT { "SIGINT" } else { "SIGTERM" };
             eprintln!("penumbra: interrupted by {name}; removed {removed} temporary file(s)");
             std::process::exit(128 + signal);

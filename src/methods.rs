@@ -2,7 +2,7 @@
 //! plugin; a method's parameters, defaults, checks and constructor live in its own file
 //! ([`renderer::MethodParams`]), so adding a method is that file, one line here and its section in docs/scene-keys.md.
 
-use renderer::method::{default_table, parse_boxed};
+use renderer::interface::method::{default_table, parse_boxed};
 use renderer::{MethodParams, SceneError, ShadowMethod, TracedParams, Unshadowed};
 use shadow_plugin::{DepthMarchParams, EdgeTableParams, PcssParams};
 use std::path::Path;

@@ -2,7 +2,7 @@
 //! every crate through `tracing-chrome`), the per-pixel cost EXR and its heat map.
 
 use crate::heat;
-use renderer::profile::PixelCost;
+use renderer::util::profile::PixelCost;
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 use tracing_chrome::{ChromeLayerBuilder, FlushGuard};
@@ -65,7 +65,7 @@ pub fn cost_exr(width: u32, height: u32, costs: &[PixelCost]) -> Result<Vec<u8>,
     let layer = Layer::new(
         (width as usize, height as usize),
         LayerAttributes::default(),
-        renderer::output::EXR_ENCODING,
+        renderer::util::output::EXR_ENCODING,
         channels,
     );
     let mut out = std::io::Cursor::new(Vec::new());

@@ -4,7 +4,7 @@
 //! Hidden with `--quiet` or when stderr is not a terminal.
 
 use indicatif::{ProgressBar, ProgressStyle};
-use renderer::render::Progress;
+use renderer::integrator::render::Progress;
 use std::io::IsTerminal;
 use std::time::Duration;
 

@@ -8,8 +8,8 @@ mod common;
 
 use common::gltf_writer::{GltfBuilder, TempDir};
 use penumbra::{RenderArgs, run_render};
-use renderer::ray_origin::offset_origin;
-use renderer::sampling::Rng;
+use renderer::geometry::ray_origin::offset_origin;
+use renderer::util::sampling::Rng;
 use renderer::{LightShadowing, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod, ShadowQuery};
 use serde_json::json;
 use shadow_plugin::{EdgeTable, EdgeTableParams};

@@ -494,7 +494,7 @@ fn floor_visibility(scene: &Scene, points: &[DVec3]) -> Vec<f32> {
             let p = (*p - scene.world_offset).as_vec3();
             let q = ShadowQuery {
                 p,
-                p_error: renderer::ray_origin::point_error(p),
+                p_error: renderer::geometry::ray_origin::point_error(p),
                 n_geom: Vec3::Y,
                 n_shading: Vec3::Y,
                 pixel: [0, 0],

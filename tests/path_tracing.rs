@@ -3,8 +3,8 @@
 //! thread count.
 
 use glam::{DVec3, Vec2, Vec3};
-use renderer::gltf_load::{Geometry, SourceTriangle};
-use renderer::material::Material;
+use renderer::geometry::material::Material;
+use renderer::load::gltf_load::{Geometry, SourceTriangle};
 use renderer::{
     Camera, Frame, LightShadowing, RectLight, RenderSettings, Scene, Traced, TracedParams, render,
 };

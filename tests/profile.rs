@@ -2,7 +2,7 @@
 //! contract names them), the cost EXR's layers and the heat map, and that the cost lands where
 //! the work is: penumbra pixels cost more than lit ones.
 
-use renderer::profile::PixelCost;
+use renderer::util::profile::PixelCost;
 use serde_json::Value;
 use std::collections::HashMap;
 use std::path::PathBuf;

@@ -2,7 +2,7 @@
 //! so geometry far from what the camera sees cannot cost the visible part its precision, and
 //! triangles are degenerate only relative to their own size.
 
-use renderer::traced::{Traced, TracedParams};
+use renderer::methods::traced::{Traced, TracedParams};
 use renderer::{LightShadowing, RenderSettings, Scene, SceneFile, render};
 use std::collections::HashSet;
 use std::path::Path;
@@ -197,15 +197,15 @@ fn dropped_triangles_are_warned_about() {
         scene.warnings
     );
 
-    let mut geometry = renderer::gltf_load::Geometry::default();
+    let mut geometry = renderer::load::gltf_load::Geometry::default();
     let p = glam::DVec3::new(0.0, 0.0, -1.0);
-    geometry.triangles.push(renderer::gltf_load::SourceTriangle {
+    geometry.triangles.push(renderer::load::gltf_load::SourceTriangle {
         p: [p, p + glam::DVec3::X, p + 2.0 * glam::DVec3::X],
         n: None,
         uv: [glam::Vec2::ZERO; 3],
         material: 0,
     });
-    geometry.materials.push(renderer::material::Material::diffuse([0.5; 3]));
+    geometry.materials.push(renderer::geometry::material::Material::diffuse([0.5; 3]));
     let camera = renderer::Camera::look_at(glam::Vec3::ZERO, -glam::Vec3::Z, glam::Vec3::Y, 40.0);
     let scene = Scene::build(geometry, vec![], camera, glam::DVec3::ZERO, Default::default());
     assert_eq!((scene.stats.triangles, scene.stats.zero_area), (0, 1));

@@ -3,7 +3,7 @@
 use crate::bits;
 use crate::depth_map::LightFrame;
 use glam::{Vec2, Vec3};
-use renderer::sampling::{Rng, strata};
+use renderer::util::sampling::{Rng, strata};
 
 /// Writes `out.len()` stratified, jittered samples over the light (an nx x ny grid, see
 /// [`strata`]), in the light's frame.

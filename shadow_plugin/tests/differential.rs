@@ -10,7 +10,7 @@
 //! through pixel corners. A hand-built scene checks the oracle itself against geometry.
 
 use glam::{Vec2, Vec3};
-use renderer::sampling::Rng;
+use renderer::util::sampling::Rng;
 use shadow_plugin::bits::{MAX_WORDS, count, fill_first, words};
 use shadow_plugin::depth_map::{DepthMap, LightFrame, MapPoint};
 use shadow_plugin::depth_march::march_bits;

@@ -7,8 +7,8 @@ use super::report::BestFigures;
 use super::truth::Truth;
 use crate::heat;
 use glam::Vec3;
-use renderer::output::StagedFiles;
-use renderer::profile::PixelCost;
+use renderer::util::output::StagedFiles;
+use renderer::util::profile::PixelCost;
 use renderer::{Frame, RenderSettings};
 use std::path::Path;
 

@@ -30,7 +30,7 @@ pub use report::{Row, SceneResult, Speedup};
 pub use sweep::{PLAIN_TRACED, Setting, sweep};
 
 use renderer::SceneError;
-use renderer::output::StagedFiles;
+use renderer::util::output::StagedFiles;
 use std::path::{Path, PathBuf};
 
 /// `penumbra bench` options.

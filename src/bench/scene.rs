@@ -6,7 +6,7 @@ use super::run::{Run, median, run_setting};
 use super::sweep::{CostOrder, Setting, no_costlier, none_setting};
 use super::truth::Truth;
 use super::{BENCH_WIDTH, BenchArgs, QUICK_WIDTH, cost, figures, metrics, plot, truth};
-use renderer::output::StagedFiles;
+use renderer::util::output::StagedFiles;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile};
 use std::path::{Path, PathBuf};
 

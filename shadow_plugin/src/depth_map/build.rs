@@ -8,7 +8,7 @@ use super::{DepthMap, DepthMapParams, LightFrame};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::ray::Ray;
 use rayon::prelude::*;
-use renderer::ray_origin::gamma;
+use renderer::geometry::ray_origin::gamma;
 use renderer::{RectLight, Scene, VisiblePoint};
 
 /// How many closed meshes stacked on each other one pixel's slab may span.

@@ -58,7 +58,8 @@ impl LightFrame {
     /// magnitudes the frame change sums.
     #[inline]
     pub fn depth_tolerance(&self, p: Vec3, p_error: Vec3) -> f32 {
-        self.z.abs().dot(p_error) + renderer::ray_origin::gamma(8) * (p - self.origin).abs().element_sum()
+        self.z.abs().dot(p_error)
+            + renderer::geometry::ray_origin::gamma(8) * (p - self.origin).abs().element_sum()
     }
 
     #[inline]

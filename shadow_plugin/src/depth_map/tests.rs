@@ -1,7 +1,7 @@
 //! Unit tests of the depth map: its layers and its fit.
 
 use super::*;
-use renderer::ray_origin::point_error;
+use renderer::geometry::ray_origin::point_error;
 use renderer::{RectLight, Scene, Shaft, VisiblePoint};
 
 fn map(depth: Vec<f32>) -> DepthMap {
@@ -38,7 +38,7 @@ fn a_nan_depth_is_refused() {
 /// `card`, and `n` x `n` visible floor points 0.1 apart from `corner` (x, z).
 fn floor_scene(card: bool, n: usize, corner: [f32; 2]) -> (Scene, RectLight, Vec<VisiblePoint>) {
     use glam::DVec3;
-    use renderer::{Camera, gltf_load::Geometry};
+    use renderer::{Camera, load::gltf_load::Geometry};
     use std::time::Duration;
     let mut g = Geometry::default();
     g.add_quad(DVec3::ZERO, DVec3::new(20.0, 0.0, 0.0), DVec3::new(0.0, 0.0, -20.0), [0.5; 3]);

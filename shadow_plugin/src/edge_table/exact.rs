@@ -25,8 +25,8 @@ use crate::bits::{self, MAX_WORDS};
 use crate::depth_map::{DepthBounds, DepthMap, MapPoint};
 use crate::march::region_reach;
 use glam::{Vec2, Vec3};
-use renderer::ray_origin::{gamma, offset_origin, shadow_ray_from};
-use renderer::shaft::{Cover, covers_light};
+use renderer::geometry::ray_origin::{gamma, offset_origin, shadow_ray_from};
+use renderer::geometry::shaft::{Cover, covers_light};
 use renderer::{RectLight, Scene, ShadowQuery, Shaft};
 
 /// Relative distance of the near field's cut above the nearest bound around the point.

@@ -80,7 +80,7 @@ use crate::samples;
 use glam::Vec2;
 use grid::{Layout, MaskGrid};
 use rayon::prelude::*;
-use renderer::sampling::{Rng, stream_seed};
+use renderer::util::sampling::{Rng, stream_seed};
 use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery, VisiblePoint};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -359,7 +359,7 @@ impl EdgeTable {
             v += w * if n_above == 0 { 1.0 } else { n_visible as f32 / n_above as f32 };
         }
         self.lookups.fetch_add(lookups, Ordering::Relaxed);
-        renderer::profile::count_lookups(lookups);
+        renderer::util::profile::count_lookups(lookups);
         self.early_outs.fetch_add(early_outs, Ordering::Relaxed);
         if culled > 0 {
             self.blocks_culled.fetch_add(culled, Ordering::Relaxed);
@@ -378,8 +378,10 @@ impl EdgeTable {
             && let Some(shaft) = renderer::Shaft::new(&map.light, q.p, q.p_error, q.n_geom, map.scene_bound)
         {
             c.shafts.fetch_add(1, Ordering::Relaxed);
-            let origin = renderer::ray_origin::offset_origin(q.p, q.p_error, q.n_geom, q.n_geom);
-            if scene.shaft_clear(&shaft) && renderer::shaft::covers_light(q.p, origin, q.n_geom, &map.light) {
+            let origin = renderer::geometry::ray_origin::offset_origin(q.p, q.p_error, q.n_geom, q.n_geom);
+            if scene.shaft_clear(&shaft)
+                && renderer::geometry::shaft::covers_light(q.p, origin, q.n_geom, &map.light)
+            {
                 c.points_shaft_clear.fetch_add(1, Ordering::Relaxed);
                 return 1.0;
             }
@@ -405,7 +407,7 @@ impl EdgeTable {
         if located.is_none() {
             // Off the map: every ray traced (once per query: the horizon's fallback above
             // counts its own).
-            renderer::profile::count_fallback();
+            renderer::util::profile::count_fallback();
         }
         if !traced_only {
             c.rays_clear.fetch_add(stats.rays_clear, Ordering::Relaxed);
@@ -415,7 +417,7 @@ impl EdgeTable {
             c.rays_near_traced.fetch_add(stats.rays_near_traced, Ordering::Relaxed);
             c.rays_far_traced.fetch_add(stats.rays_far_traced, Ordering::Relaxed);
             self.lookups.fetch_add(stats.lookups, Ordering::Relaxed);
-            renderer::profile::count_lookups(stats.lookups);
+            renderer::util::profile::count_lookups(stats.lookups);
             if stats.blocks_culled > 0 {
                 self.blocks_culled.fetch_add(stats.blocks_culled, Ordering::Relaxed);
             }

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use rayon::prelude::*;
-use renderer::ray_origin::gamma;
+use renderer::geometry::ray_origin::gamma;
 
 /// Bit pattern of an edge's endpoints, smaller first: shared edges of a mesh have identical
 /// f32 vertices.

@@ -39,8 +39,8 @@ use edges::open_edges;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use renderer::Scene;
-use renderer::material::AlphaMode;
-use renderer::ray_origin::gamma;
+use renderer::geometry::material::AlphaMode;
+use renderer::geometry::ray_origin::gamma;
 use runs::{Blocks, blocks, pixel_runs};
 
 /// Widening of every pixel's frustum, in pixels.

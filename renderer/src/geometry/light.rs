@@ -36,7 +36,7 @@ impl RectLight {
     /// subtractions, two products and two sums, gamma(4) of the terms' magnitudes.
     #[inline]
     pub fn point_error(&self, a: f32, b: f32) -> Vec3 {
-        crate::ray_origin::gamma(4)
+        crate::geometry::ray_origin::gamma(4)
             * (self.center.abs() + ((a - 0.5) * self.u).abs() + ((b - 0.5) * self.v).abs())
     }
 

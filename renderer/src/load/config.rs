@@ -2,7 +2,8 @@
 //! file and the key. The `[shadows]` table is kept raw here: only the CLI knows every shadow
 //! method, so it types that table itself (see `penumbra::config`).
 
-use crate::error::SceneError;
+use crate::util::error::SceneError;
+use crate::util::keys::deserialize_toml;
 use serde::Deserialize;
 use std::path::{Path, PathBuf};
 
@@ -41,7 +42,7 @@ pub struct IntegratorDesc {
 }
 
 fn default_max_depth() -> u32 {
-    crate::path::DEFAULT_MAX_DEPTH
+    crate::integrator::path::DEFAULT_MAX_DEPTH
 }
 
 impl Default for IntegratorDesc {
@@ -243,8 +244,8 @@ impl SceneFile {
         if im.spp == 0 || im.spp > MAX_SPP {
             return err("image.spp".into(), &format!("must be in 1..={MAX_SPP}"));
         }
-        if !crate::path::DEPTH_RANGE.contains(&self.integrator.max_depth) {
-            return err("integrator.max_depth".into(), crate::path::DEPTH_RANGE_TEXT);
+        if !crate::integrator::path::DEPTH_RANGE.contains(&self.integrator.max_depth) {
+            return err("integrator.max_depth".into(), crate::integrator::path::DEPTH_RANGE_TEXT);
         }
         for (i, l) in self.light.iter().enumerate() {
             validate_light(l, &format!("light[{i}]"), path)?;
@@ -295,76 +296,6 @@ pub fn validate_light(l: &LightDesc, key: &str, path: &Path) -> Result<(), Scene
     Ok(())
 }
 
-/// Deserialises TOML text into `T`, turning serde's error into a [`SceneError`] that names
-/// the key path (`prefix` is prepended, e.g. `shadows`) or, for syntax errors, the byte
-/// offset with line and column.
-pub fn deserialize_toml<T: serde::de::DeserializeOwned>(
-    text: &str,
-    path: &Path,
-    prefix: &str,
-) -> Result<T, SceneError> {
-    let de = toml::Deserializer::new(text);
-    serde_path_to_error::deserialize(de).map_err(|e| {
-        let key = join_key(prefix, &e.path().to_string());
-        let inner = e.inner();
-        let message = inner.message().to_string();
-        let key = with_unknown_field(&key, &message);
-        let key = if key.is_empty() || key == "." {
-            match inner.span() {
-                Some(span) => location(text, span.start),
-                None => String::new(),
-            }
-        } else {
-            key
-        };
-        SceneError::new(path, key, message)
-    })
-}
-
-/// Deserialises an already-parsed TOML value (a sub-table) into `T`, with key paths under
-/// `prefix`.
-pub fn deserialize_value<T: serde::de::DeserializeOwned>(
-    value: toml::Value,
-    path: &Path,
-    prefix: &str,
-) -> Result<T, SceneError> {
-    serde_path_to_error::deserialize(value).map_err(|e| {
-        let key = join_key(prefix, &e.path().to_string());
-        let message = e.inner().message().to_string();
-        SceneError::new(path, with_unknown_field(&key, &message), message)
-    })
-}
-
-fn join_key(prefix: &str, path: &str) -> String {
-    let path = if path == "." { "" } else { path };
-    match (prefix.is_empty(), path.is_empty()) {
-        (true, _) => path.to_string(),
-        (false, true) => prefix.to_string(),
-        (false, false) => format!("{prefix}.{path}"),
-    }
-}
-
-/// serde reports an unknown field at the table that holds it; name the field itself.
-fn with_unknown_field(key: &str, message: &str) -> String {
-    // serde_path_to_error already ends the path with the field for tables; values typed
-    // later (deserialize_value) may not.
-    if let Some(rest) = message.strip_prefix("unknown field `")
-        && let Some(name) = rest.split('`').next()
-        && !(key == name || key.ends_with(&format!(".{name}")))
-    {
-        return join_key(key, name);
-    }
-    key.to_string()
-}
-
-fn location(text: &str, byte: usize) -> String {
-    let byte = byte.min(text.len());
-    let before = &text[..byte];
-    let line = before.matches('\n').count() + 1;
-    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    format!("byte {byte} (line {line}, column {column})")
-}
-
 fn finite3(v: [f64; 3]) -> bool {
     v.iter().all(|x| x.is_finite())
 }
@@ -381,7 +312,7 @@ fn len(a: [f64; 3]) -> f64 {
 /// quad spans some).
 fn spans_zero_area(u: [f64; 3], v: [f64; 3]) -> bool {
     use glam::DVec3;
-    crate::precision::is_degenerate([DVec3::ZERO, DVec3::from(u), DVec3::from(v)])
+    crate::geometry::precision::is_degenerate([DVec3::ZERO, DVec3::from(u), DVec3::from(v)])
 }
 fn cross_len(a: [f64; 3], b: [f64; 3]) -> f64 {
     len([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])

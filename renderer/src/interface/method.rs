@@ -7,8 +7,8 @@
 //! Code-only switches (ablations the bench measures, such as `traced`'s shaft culling) are
 //! fields serde skips: the scene file cannot set them, tests and the bench can.
 
-use crate::error::SceneError;
-use crate::shadowing::LightShadowing;
+use crate::interface::shadowing::LightShadowing;
+use crate::util::error::SceneError;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::fmt;
@@ -131,7 +131,7 @@ pub fn settings_over<T: Serialize + DeserializeOwned>(
 ) -> Result<T, SceneError> {
     let mut merged = base_table(base);
     merged.extend(table.iter().map(|(k, v)| (k.clone(), v.clone())));
-    let e = match crate::config::deserialize_value::<T>(toml::Value::Table(merged), file, prefix) {
+    let e = match crate::util::keys::deserialize_value::<T>(toml::Value::Table(merged), file, prefix) {
         Ok(params) => return Ok(params),
         Err(e) => e,
     };
@@ -143,7 +143,7 @@ pub fn settings_over<T: Serialize + DeserializeOwned>(
     for (k, v) in table {
         let mut one = base_table(base);
         one.insert(k.clone(), v.clone());
-        if let Err(mut e) = crate::config::deserialize_value::<T>(toml::Value::Table(one), file, prefix) {
+        if let Err(mut e) = crate::util::keys::deserialize_value::<T>(toml::Value::Table(one), file, prefix) {
             if e.key == prefix {
                 e.key = format!("{prefix}.{k}");
             }

@@ -13,7 +13,7 @@
 //!
 //! Everything is computed in f64, like [`RectLight::irradiance_factor`]'s clip.
 
-use crate::light::RectLight;
+use crate::geometry::light::RectLight;
 use glam::Vec3;
 
 /// Below this area (as a fraction of the light's) the part above the horizon is too thin to
@@ -206,7 +206,7 @@ impl HorizonWarp {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampling::Rng;
+    use crate::util::sampling::Rng;
 
     /// Cut lines of every kind: through two opposite sides, adjacent sides (corner slivers
     /// large and tiny, on every corner), nearly parallel to either axis, and through corners.
@@ -400,14 +400,14 @@ mod tests {
 /// `traced` through the warp: horizon slivers, an analytic fraction, and exact culling.
 #[cfg(test)]
 mod traced_tests {
-    use crate::camera::Camera;
-    use crate::gltf_load::Geometry;
-    use crate::light::RectLight;
-    use crate::light_sampling::HorizonPart;
-    use crate::sampling::Rng;
-    use crate::scene::Scene;
-    use crate::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
-    use crate::traced::{Traced, TracedParams};
+    use crate::geometry::camera::Camera;
+    use crate::geometry::light::RectLight;
+    use crate::geometry::light_sampling::HorizonPart;
+    use crate::geometry::scene::Scene;
+    use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
+    use crate::load::gltf_load::Geometry;
+    use crate::methods::traced::{Traced, TracedParams};
+    use crate::util::sampling::Rng;
     use glam::{DVec3, Vec3};
     use std::time::Duration;
 
@@ -444,7 +444,7 @@ mod traced_tests {
     fn query(p: Vec3, n: Vec3, seed: u64) -> ShadowQuery {
         ShadowQuery {
             p,
-            p_error: crate::ray_origin::point_error(p),
+            p_error: crate::geometry::ray_origin::point_error(p),
             n_geom: n,
             n_shading: n,
             pixel: [0, 0],
@@ -540,7 +540,7 @@ mod traced_tests {
             let n = (Vec3::Y * tilt.cos() + away * tilt.sin()).normalize();
             let q = ShadowQuery {
                 p,
-                p_error: crate::ray_origin::point_error(p),
+                p_error: crate::geometry::ray_origin::point_error(p),
                 n_geom: Vec3::Y,
                 n_shading: n,
                 pixel: [0, 0],

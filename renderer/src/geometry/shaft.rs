@@ -2,10 +2,10 @@
 //! whole bundle of shadow rays unblocked, so that none of them need tracing.
 //!
 //! The shaft of a shading point is the convex hull of its ray origin (the apex: exactly the
-//! origin [`crate::ray_origin::offset_origin`] gives every ray above the tangent plane) and
+//! origin [`crate::geometry::ray_origin::offset_origin`] gives every ray above the tangent plane) and
 //! the light's rectangle, cut by a plane just under the apex, parallel to the tangent plane
 //! (the receiver's own surface lies below it) and by a plane just in front of the light (rays stop
-//! short of the light: [`crate::ray_origin::shadow_ray`]). Every shadow ray from the point to
+//! short of the light: [`crate::geometry::ray_origin::shadow_ray`]). Every shadow ray from the point to
 //! a light sample that [`covers`] accepts lies inside it. If no triangle can meet the shaft,
 //! each of those rays is unblocked, and a traced query gives the same bits without tracing
 //! them.
@@ -29,9 +29,9 @@
 //! ray ends at least that far in front (it stops that fraction of its length short of a
 //! point not behind the plane).
 
-use crate::light::RectLight;
-use crate::ray_origin::{SHADOW_EPSILON, gamma, offset_origin};
-use crate::scene::Scene;
+use crate::geometry::light::RectLight;
+use crate::geometry::ray_origin::{SHADOW_EPSILON, gamma, offset_origin};
+use crate::geometry::scene::Scene;
 use glam::{Vec3, Vec3A};
 
 /// `x > 0` (false for NaN).
@@ -133,7 +133,7 @@ impl Shaft {
     /// on the side the light is tested from) toward `light`, in a scene whose coordinates are
     /// at most `scene_bound` in magnitude ([`Scene::coordinate_bound`]).
     ///
-    /// It holds every shadow ray of [`crate::ray_origin::shadow_ray`] from `p` to a light
+    /// It holds every shadow ray of [`crate::geometry::ray_origin::shadow_ray`] from `p` to a light
     /// point the [`covers`] test accepts. `None` if the light's rectangle is degenerate or the
     /// apex is not clearly in front of it.
     pub fn new(light: &RectLight, p: Vec3, p_error: Vec3, n_geom: Vec3, scene_bound: f32) -> Option<Shaft> {
@@ -301,7 +301,7 @@ impl Scene {
     /// Whether no triangle of the scene can meet `shaft` (alpha-tested ones count as solid):
     /// `true` proves every ray the shaft covers unblocked.
     pub fn shaft_clear(&self, shaft: &Shaft) -> bool {
-        crate::profile::count_shaft();
+        crate::util::profile::count_shaft();
         let Some(bvh) = &self.bvh else { return true };
         let nodes = &bvh.nodes;
         if nodes.is_empty() {
@@ -381,7 +381,7 @@ pub fn clear_leaves(
 
 /// [`clear_leaves`] for samples drawn through a map of the strata square onto the light:
 /// `part(a, b)` gives a part of the light (a, b ranges) holding the image of the strata block
-/// `a x b` (e.g. [`crate::light_sampling::HorizonWarp::bounds`]).
+/// `a x b` (e.g. [`crate::geometry::light_sampling::HorizonWarp::bounds`]).
 #[allow(clippy::too_many_arguments)]
 pub fn clear_leaves_mapped(
     scene: &Scene,

@@ -2,12 +2,12 @@
 //! their margins hold at the precision edge.
 
 use super::*;
-use crate::camera::Camera;
-use crate::gltf_load::Geometry;
-use crate::ray_origin::point_error;
-use crate::sampling::Rng;
-use crate::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
-use crate::traced::{Traced, TracedParams};
+use crate::geometry::camera::Camera;
+use crate::geometry::ray_origin::point_error;
+use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
+use crate::load::gltf_load::Geometry;
+use crate::methods::traced::{Traced, TracedParams};
+use crate::util::sampling::Rng;
 use glam::DVec3;
 use std::time::Duration;
 
@@ -139,8 +139,8 @@ fn leaves_cover_the_strata_grid_and_parts_below_the_threshold_are_not_tested() {
 }
 
 fn triangles_scene(tris: &[[DVec3; 3]], light: RectLight) -> Scene {
-    use crate::gltf_load::SourceTriangle;
-    use crate::material::Material;
+    use crate::geometry::material::Material;
+    use crate::load::gltf_load::SourceTriangle;
     let mut g = Geometry::default();
     g.materials.push(Material::diffuse([0.5; 3]));
     for t in tris {

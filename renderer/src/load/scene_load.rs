@@ -2,14 +2,14 @@
 //! centred on the camera, lights and camera placed in it, triangles f32 cannot hold dropped
 //! and warned about, then the BVH.
 
-use crate::camera::Camera;
-use crate::config::{LightDesc, SceneFile, validate_light};
-use crate::error::SceneError;
-use crate::gltf_load::{EmitterCandidate, Geometry, GltfCamera, SourceTriangle, load_gltf};
-use crate::light::RectLight;
-use crate::material::Material;
-use crate::precision::{SHAPE_PRECISION, f32_spacing, is_degenerate};
-use crate::scene::{LoadStats, Scene, TriangleShading, bvh_params, camera_frame_ok, cover_depth};
+use crate::geometry::camera::Camera;
+use crate::geometry::light::RectLight;
+use crate::geometry::material::Material;
+use crate::geometry::precision::{SHAPE_PRECISION, f32_spacing, is_degenerate};
+use crate::geometry::scene::{LoadStats, Scene, TriangleShading, bvh_params, camera_frame_ok, cover_depth};
+use crate::load::config::{LightDesc, SceneFile, validate_light};
+use crate::load::gltf_load::{EmitterCandidate, Geometry, GltfCamera, SourceTriangle, load_gltf};
+use crate::util::error::SceneError;
 use glam::{DMat4, DQuat, DVec3, Vec2, Vec3};
 use obvhs::triangle::Triangle;
 use std::path::Path;
@@ -89,7 +89,8 @@ impl Scene {
         };
         drop(bvh_span);
         let bvh_time = t_bvh.elapsed();
-        let any_alpha_test = materials.iter().any(|m| !matches!(m.alpha, crate::material::AlphaMode::Opaque));
+        let any_alpha_test =
+            materials.iter().any(|m| !matches!(m.alpha, crate::geometry::material::AlphaMode::Opaque));
         let stats = LoadStats {
             load,
             bvh: bvh_time,

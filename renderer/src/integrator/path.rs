@@ -10,11 +10,11 @@
 //! triangles (it reflects off them by their albedo); emission arrives by next-event
 //! estimation only.
 
-use crate::profile::Work;
-use crate::ray_origin::offset_origin;
-use crate::sampling::{Rng, stream_seed};
-use crate::scene::{Scene, SurfaceHit};
-use crate::shadowing::{LightShadowing, ShadowQuery};
+use crate::geometry::ray_origin::offset_origin;
+use crate::geometry::scene::{Scene, SurfaceHit};
+use crate::interface::shadowing::{LightShadowing, ShadowQuery};
+use crate::util::profile::Work;
+use crate::util::sampling::{Rng, stream_seed};
 use glam::{Vec3, Vec3A};
 use obvhs::ray::Ray;
 use std::time::Instant;
@@ -64,7 +64,7 @@ impl PathId {
 
 /// Shadow queries per path vertex (index 0 = the primary hit): how many, the rays traced for
 /// them, how many traced none, how many a depth-map method could not answer from its map
-/// ([`crate::profile::count_fallback`]), and (profiling) their seconds.
+/// ([`crate::util::profile::count_fallback`]), and (profiling) their seconds.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct VertexQueries {
     pub queries: u64,

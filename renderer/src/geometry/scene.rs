@@ -1,11 +1,11 @@
 //! The runtime scene: triangles in BVH order with their shading attributes, materials,
 //! textures, lights and camera; closest-hit and occlusion queries with the alpha test; and
-//! the hit's own error bound that the one rule for ray origins uses ([`crate::ray_origin`]).
+//! the hit's own error bound that the one rule for ray origins uses ([`crate::geometry::ray_origin`]).
 
-use crate::camera::Camera;
-use crate::light::RectLight;
-use crate::material::{Material, Texture};
-use crate::ray_origin::{interpolation_error, shadow_ray, shadow_ray_from};
+use crate::geometry::camera::Camera;
+use crate::geometry::light::RectLight;
+use crate::geometry::material::{Material, Texture};
+use crate::geometry::ray_origin::{interpolation_error, shadow_ray, shadow_ray_from};
 use glam::{DVec3, Vec2, Vec3};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::Ray, triangle::Triangle};
 use std::time::Duration;
@@ -26,7 +26,7 @@ pub struct SurfaceHit {
     /// The hit point, interpolated from the triangle's vertices (not `o + t d`).
     pub p: Vec3,
     /// A bound on `p`'s own rounding, per component ([`interpolation_error`]): the one rule
-    /// for ray origins offsets by it ([`crate::ray_origin::offset_origin`]).
+    /// for ray origins offsets by it ([`crate::geometry::ray_origin::offset_origin`]).
     pub p_error: Vec3,
     /// Unit geometric normal, on the side of the incoming ray.
     pub n_geom: Vec3,
@@ -274,7 +274,7 @@ impl Scene {
     /// query that stops at the first hit.
     #[inline]
     pub fn occluded(&self, ray: Ray) -> bool {
-        crate::profile::count_ray();
+        crate::util::profile::count_ray();
         match &self.bvh {
             None => false,
             Some(bvh) => !bvh.ray_traverse_miss(ray, |r, slot| self.hit_distance(r, slot)),
@@ -284,7 +284,7 @@ impl Scene {
     /// Whether the segment from surface point `p` (error bound `p_error`, geometric normal
     /// `n_geom`) to `target` (error bound `target_error`, on a surface of normal
     /// `target_normal`) is blocked, with the one rule at both ends
-    /// ([`crate::ray_origin::shadow_ray`]).
+    /// ([`crate::geometry::ray_origin::shadow_ray`]).
     #[inline]
     pub fn segment_occluded(
         &self,
@@ -302,7 +302,7 @@ impl Scene {
     }
 
     /// [`Self::segment_occluded`] from an origin already offset
-    /// ([`crate::ray_origin::shadow_ray_from`]).
+    /// ([`crate::geometry::ray_origin::shadow_ray_from`]).
     #[inline]
     pub fn segment_occluded_from(
         &self,

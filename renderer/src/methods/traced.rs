@@ -1,14 +1,14 @@
 //! The two built-in methods: `traced`, the ground truth (shadow rays through the BVH), and
-//! `none`, the cost floor. Both are configured like every plugin ([`crate::method`]).
+//! `none`, the cost floor. Both are configured like every plugin ([`crate::interface::method`]).
 
-use crate::light::RectLight;
-use crate::light_sampling::HorizonPart;
-use crate::method::{KeyError, MethodParams, ShadowMethod};
-use crate::ray_origin::offset_origin;
-use crate::sampling::{Rng, strata};
-use crate::scene::Scene;
-use crate::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
-use crate::shaft;
+use crate::geometry::light::RectLight;
+use crate::geometry::light_sampling::HorizonPart;
+use crate::geometry::ray_origin::offset_origin;
+use crate::geometry::scene::Scene;
+use crate::geometry::shaft;
+use crate::interface::method::{KeyError, MethodParams, ShadowMethod};
+use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
+use crate::util::sampling::{Rng, strata};
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -66,7 +66,7 @@ pub struct TracedParams {
     /// see [`strata`]), jittered per point. 1024 matches the edge-table masks.
     #[serde(skip)]
     pub samples: u32,
-    /// Test each point's shaft to the light first ([`crate::shaft`]): where no triangle can
+    /// Test each point's shaft to the light first ([`crate::geometry::shaft`]): where no triangle can
     /// meet it, the rays it covers are counted unblocked without being traced. The same bits
     /// either way; only the cost differs (the bench's `traced plain` turns it off).
     #[serde(skip)]
@@ -159,7 +159,7 @@ impl LightShadowing for Traced {
         let light = self.light.as_ref().expect("prepare() runs before visibility()");
         let (nx, ny) = strata(self.params.samples);
         // Where the horizon cuts the light, the strata are warped onto the part above it
-        // ([`crate::light_sampling::HorizonWarp`]): every sample counts. The whole light
+        // ([`crate::geometry::light_sampling::HorizonWarp`]): every sample counts. The whole light
         // above, or too thin a part above, keeps the plain grid (and its fallback below).
         let warp = match HorizonPart::new(light, q.p, q.n_shading) {
             HorizonPart::Clipped(w) => Some(w),
@@ -275,8 +275,8 @@ impl LightShadowing for Traced {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::Camera;
-    use crate::gltf_load::Geometry;
+    use crate::geometry::camera::Camera;
+    use crate::load::gltf_load::Geometry;
     use glam::DVec3;
     use glam::Vec3;
     use std::time::Duration;
@@ -313,7 +313,7 @@ mod tests {
     fn query(p: Vec3, seed: u64) -> ShadowQuery {
         ShadowQuery {
             p,
-            p_error: crate::ray_origin::point_error(p),
+            p_error: crate::geometry::ray_origin::point_error(p),
             n_geom: Vec3::Y,
             n_shading: Vec3::Y,
             pixel: [0, 0],
@@ -386,7 +386,7 @@ mod tests {
         let t = traced(&scene, 64);
         let q = ShadowQuery {
             p: Vec3::new(0.0, 1.0, 0.0),
-            p_error: crate::ray_origin::point_error(Vec3::new(0.0, 1.0, 0.0)),
+            p_error: crate::geometry::ray_origin::point_error(Vec3::new(0.0, 1.0, 0.0)),
             n_geom: Vec3::X,
             n_shading: Vec3::X,
             pixel: [0, 0],

@@ -15,7 +15,7 @@ use crate::heightfield::{Heightfield, inapplicable_to_reading};
 use crate::march::{ray_blocked, stop_height};
 use crate::samples;
 use glam::Vec2;
-use renderer::sampling::Rng;
+use renderer::util::sampling::Rng;
 use renderer::{
     KeyError, LightShadowing, MethodParams, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery,
 };

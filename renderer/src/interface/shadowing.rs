@@ -1,14 +1,14 @@
 //! The `LightShadowing` plugin interface. The two built-in methods, `traced` (the ground
-//! truth) and `none`, are in [`crate::traced`]; how a method is configured is
-//! [`crate::method`].
+//! truth) and `none`, are in [`crate::methods::traced`]; how a method is configured is
+//! [`crate::interface::method`].
 //!
 //! A method is built per light and frame: [`LightShadowing::prepare`] runs once, with the
 //! scene and the camera's primary hits, before the pixel loop (its wall time is the run
 //! report's `shadow_prepare`); then [`LightShadowing::visibility`] answers per shading point
 //! through `&self`, without allocating, from any thread.
 
-use crate::light::RectLight;
-use crate::scene::Scene;
+use crate::geometry::light::RectLight;
+use crate::geometry::scene::Scene;
 use glam::Vec3;
 
 /// What a method may look at when it prepares for one light.
@@ -50,10 +50,10 @@ pub struct ShadowQuery {
     /// The shading point (render space), on the surface: not offset.
     pub p: Vec3,
     /// A bound on `p`'s own rounding, per component ([`crate::SurfaceHit::p_error`]); ray
-    /// origins are offset by it ([`crate::ray_origin`]). Zero for a point known exactly.
+    /// origins are offset by it ([`crate::geometry::ray_origin`]). Zero for a point known exactly.
     pub p_error: Vec3,
     /// Unit geometric normal, on the side the camera ray came from. Ray origins are offset
-    /// along it ([`crate::ray_origin::offset_origin`]).
+    /// along it ([`crate::geometry::ray_origin::offset_origin`]).
     pub n_geom: Vec3,
     /// Unit shading normal (same side): defines the horizon.
     pub n_shading: Vec3,

@@ -3,11 +3,11 @@
 //! number is keyed by (seed, pixel, sample, light), so the bytes do not depend on the number
 //! of threads.
 
-use crate::path::{PathId, VertexQueries, merge_vertex_queries};
-use crate::profile::{PixelCost, Work};
-use crate::sampling::{Rng, strata, stream_seed};
-use crate::scene::{Scene, SurfaceHit};
-use crate::shadowing::{LightShadowing, PrepareContext, ShadowError, VisiblePoint};
+use crate::geometry::scene::{Scene, SurfaceHit};
+use crate::integrator::path::{PathId, VertexQueries, merge_vertex_queries};
+use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, VisiblePoint};
+use crate::util::profile::{PixelCost, Work};
+use crate::util::sampling::{Rng, strata, stream_seed};
 use glam::{Vec3, Vec3A};
 use obvhs::ray::Ray;
 use rayon::prelude::*;
@@ -26,7 +26,7 @@ pub struct RenderSettings {
     pub mask_budget_bytes: u64,
     /// Measure each pixel's shading time and work ([`Frame::costs`]).
     pub profile: bool,
-    /// Longest path, counted as Mitsuba 3 counts it ([`crate::path`]): 2 = direct light
+    /// Longest path, counted as Mitsuba 3 counts it ([`crate::integrator::path`]): 2 = direct light
     /// only, 5 = three indirect bounces.
     pub max_depth: u32,
     /// XORed into the seeds of the shadow queries only (0 normally): a render with another
@@ -75,7 +75,7 @@ pub struct Frame {
     pub warnings: Vec<String>,
 }
 
-/// Stream tag of the primary samples' jitter (the others: [`crate::path`]).
+/// Stream tag of the primary samples' jitter (the others: [`crate::integrator::path`]).
 const TAG_PRIMARY: u64 = 1;
 
 /// Renders `scene` with one shadow method per light (`methods[k]` shadows `scene.lights[k]`).
@@ -168,7 +168,7 @@ pub fn frame_warnings(
     facing: &[u64],
     lit: &[u64],
 ) -> Vec<String> {
-    use crate::precision::{SHAPE_PRECISION, f32_spacing};
+    use crate::geometry::precision::{SHAPE_PRECISION, f32_spacing};
     let mut warnings = Vec::new();
     let visible = hits.iter().flatten().count();
     if visible == 0 {
@@ -245,7 +245,7 @@ fn primary_hits(
 }
 
 /// The first vertex after the primary hit of each pixel's first sample, as
-/// [`crate::path::indirect`] will find it (the same random stream).
+/// [`crate::integrator::path::indirect`] will find it (the same random stream).
 fn first_bounces(scene: &Scene, hits: &[Option<SurfaceHit>], settings: &RenderSettings) -> Vec<VisiblePoint> {
     let RenderSettings { width, spp, seed, .. } = *settings;
     let (w, spp) = (width as usize, spp as usize);
@@ -259,7 +259,7 @@ fn first_bounces(scene: &Scene, hits: &[Option<SurfaceHit>], settings: &RenderSe
                     let pixel_index = (y * w + x) as u64;
                     let id =
                         PathId { pixel: [x as u32, y as u32], pixel_index, sample: 0, seed, shadow_salt: 0 };
-                    let next = crate::path::bounce(scene, hit, &mut id.bounce_rng())?;
+                    let next = crate::integrator::path::bounce(scene, hit, &mut id.bounce_rng())?;
                     Some(VisiblePoint::from(&next))
                 })
                 .collect()
@@ -427,7 +427,7 @@ fn shade_pixel(
             if e <= 0.0 {
                 continue; // no light reaches: skip the shadow query
             }
-            let v = crate::path::shadow_query(
+            let v = crate::integrator::path::shadow_query(
                 scene,
                 methods[k].as_ref(),
                 hit,
@@ -443,7 +443,7 @@ fn shade_pixel(
             sum += albedo * light.radiance * (e * v);
         }
         if max_depth > 2 {
-            indirect += crate::path::indirect(
+            indirect += crate::integrator::path::indirect(
                 scene,
                 methods,
                 hit,

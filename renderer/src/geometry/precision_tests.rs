@@ -2,15 +2,15 @@
 //! from the origin, lit planes far from the origin, tiny and huge triangles; and the
 //! measurements behind the choice of the ray-origin rule against Wächter & Binder's.
 
-use crate::camera::Camera;
-use crate::gltf_load::Geometry;
-use crate::light::RectLight;
-use crate::material::Material;
-use crate::ray_origin::{point_error, shadow_ray};
-use crate::scene::{LoadStats, Scene, SurfaceHit, TriangleShading, bvh_params};
-use crate::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
-use crate::shaft::Shaft;
-use crate::traced::{Traced, TracedParams};
+use crate::geometry::camera::Camera;
+use crate::geometry::light::RectLight;
+use crate::geometry::material::Material;
+use crate::geometry::ray_origin::{point_error, shadow_ray};
+use crate::geometry::scene::{LoadStats, Scene, SurfaceHit, TriangleShading, bvh_params};
+use crate::geometry::shaft::Shaft;
+use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
+use crate::load::gltf_load::Geometry;
+use crate::methods::traced::{Traced, TracedParams};
 use glam::{DQuat, DVec3, EulerRot, Vec2, Vec3, Vec3A};
 use obvhs::{ray::Ray, triangle::Triangle};
 use std::time::Duration;
@@ -47,7 +47,7 @@ fn wachter_binder_ray(hit: &SurfaceHit, target: Vec3, light_normal: Vec3) -> Opt
 /// Which rule a measurement traces with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Rule {
-    /// The renderer's: the hit's own error bound ([`crate::ray_origin`]).
+    /// The renderer's: the hit's own error bound ([`crate::geometry::ray_origin`]).
     ErrorBound,
     WachterBinder,
 }
@@ -206,8 +206,9 @@ fn the_error_bound_rule_catches_a_rope_1mm_up_at_90m_where_wachter_binder_leaks(
         bound_leaks += usize::from(plain_visibility(&scene, &light, hit, 16, Rule::ErrorBound) > 0.0);
         wb_leaks += usize::from(plain_visibility(&scene, &light, hit, 16, Rule::WachterBinder) > 0.0);
         let up = light.center - hit.p;
-        offset_bound = offset_bound
-            .max(crate::ray_origin::offset_origin(hit.p, hit.p_error, hit.n_geom, up).distance(hit.p));
+        offset_bound = offset_bound.max(
+            crate::geometry::ray_origin::offset_origin(hit.p, hit.p_error, hit.n_geom, up).distance(hit.p),
+        );
         offset_wb = offset_wb.max(wachter_binder_origin(hit.p, hit.n_geom, up).distance(hit.p));
     }
     eprintln!(
@@ -333,7 +334,7 @@ fn measure_false_occlusion() {
     let scenes = std::env::var("PENUMBRA_SCENES").unwrap_or_else(|_| "../scenes/default.toml".into());
     for path in scenes.split(':') {
         let path = std::path::Path::new(path);
-        let file = crate::config::SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let file = crate::load::config::SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));
         let scene = Scene::load(&file, path).unwrap_or_else(|e| panic!("{e}"));
         let (w, h) = (320u32, 240u32);
         let bound = scene.coordinate_bound();
@@ -374,9 +375,12 @@ fn measure_false_occlusion() {
                     }
                     for (r, rule) in [Rule::ErrorBound, Rule::WachterBinder].into_iter().enumerate() {
                         let apex = match rule {
-                            Rule::ErrorBound => {
-                                crate::ray_origin::offset_origin(hit.p, hit.p_error, hit.n_geom, hit.n_geom)
-                            }
+                            Rule::ErrorBound => crate::geometry::ray_origin::offset_origin(
+                                hit.p,
+                                hit.p_error,
+                                hit.n_geom,
+                                hit.n_geom,
+                            ),
                             Rule::WachterBinder => wachter_binder_origin(hit.p, hit.n_geom, hit.n_geom),
                         };
                         let Some(shaft) =
@@ -395,7 +399,7 @@ fn measure_false_occlusion() {
                             for i in 0..8 {
                                 let (a, b) = ((i as f32 + 0.5) / 8.0, (j as f32 + 0.5) / 8.0);
                                 let (target, e) = (light.point(a, b), light.point_error(a, b));
-                                if !crate::shaft::covers(hit.p, apex, hit.n_geom, target, e) {
+                                if !crate::geometry::shaft::covers(hit.p, apex, hit.n_geom, target, e) {
                                     continue;
                                 }
                                 let ray = match rule {

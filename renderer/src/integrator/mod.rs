@@ -1,0 +1,5 @@
+//! The frame: primary rays, `prepare` per light, shading (direct light through the shadow
+//! plugin) and diffuse paths with next-event estimation at every vertex.
+
+pub mod path;
+pub mod render;

@@ -1,0 +1,272 @@
+//! glTF 2.0 (.gltf + .bin + images, or .glb) into world-space triangles, materials and
+//! textures. Node transforms are composed in f64; every node of the default scene is
+//! expanded, nested TRS and matrices alike. Skins and morph targets are ignored (bind pose).
+
+use crate::geometry::material::{AlphaMode, Material, Texture, TextureRef, Wrap};
+use crate::util::error::SceneError;
+use glam::{Affine2, DMat3, DMat4, DVec3, Mat2, Vec2, Vec3, Vec4};
+use gltf::Semantic;
+use gltf::accessor::{DataType, Dimensions};
+use gltf::mesh::Mode;
+use std::collections::HashMap;
+use std::path::Path;
+
+mod materials;
+mod primitives;
+use materials::*;
+use primitives::*;
+
+/// A triangle as loaded: world positions in f64 (before the scene is recentred), optional
+/// world-space vertex normals, texture coordinates and a material index (into the scene's
+/// material list).
+#[derive(Debug, Clone, Copy)]
+pub struct SourceTriangle {
+    pub p: [DVec3; 3],
+    pub n: Option<[Vec3; 3]>,
+    pub uv: [Vec2; 3],
+    pub material: u32,
+}
+
+/// Triangles of one emissive primitive instance: a candidate rectangular light.
+#[derive(Debug, Clone)]
+pub struct EmitterCandidate {
+    pub triangles: Vec<[DVec3; 3]>,
+    pub radiance: Vec3,
+    pub double_sided: bool,
+}
+
+/// A camera found in a glTF file: its node's world transform and vertical fov (radians).
+#[derive(Debug, Clone, Copy)]
+pub struct GltfCamera {
+    pub world: DMat4,
+    pub yfov: f64,
+}
+
+/// Everything the loader appends to.
+#[derive(Debug, Default)]
+pub struct Geometry {
+    pub triangles: Vec<SourceTriangle>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub emitters: Vec<EmitterCandidate>,
+    /// Triangles dropped because they have zero area.
+    pub degenerate: u64,
+}
+
+/// Loads `path` into `geometry`, transformed by `model_from_file` after the file's own node
+/// transforms. Returns the file's first camera, if any.
+pub fn load_gltf(
+    path: &Path,
+    model_from_file: DMat4,
+    geometry: &mut Geometry,
+) -> Result<Option<GltfCamera>, SceneError> {
+    let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
+    let gltf = open_gltf(path).map_err(|e| match truncated_glb(path) {
+        Some(msg) => fail("", msg),
+        None => fail("", format!("cannot load glTF: {e}")),
+    })?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let buffers = load_buffers(path, base, &gltf.document, gltf.blob.clone())?;
+    let doc = &gltf.document;
+
+    let material_base = geometry.materials.len() as u32;
+    load_materials(path, base, doc, &buffers, geometry)?;
+    // The glTF default material (white, opaque) for primitives without one.
+    geometry.materials.push(Material::diffuse([1.0, 1.0, 1.0]));
+    let default_material = geometry.materials.len() as u32 - 1;
+
+    let scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
+    load_nodes(path, &scene, model_from_file, material_base, default_material, &buffers, geometry)
+}
+
+/// A .glb shorter than its header says ("the file is truncated: N of M bytes"), or `None`.
+fn truncated_glb(path: &Path) -> Option<String> {
+    use std::io::Read;
+    let mut header = [0u8; 12];
+    let mut f = std::fs::File::open(path).ok()?;
+    let actual = f.metadata().ok()?.len();
+    f.read_exact(&mut header).ok()?;
+    let declared = u32::from_le_bytes(header[8..12].try_into().ok()?) as u64;
+    (&header[0..4] == b"glTF" && actual < declared)
+        .then(|| format!("the .glb is truncated: {actual} bytes, its header declares {declared}"))
+}
+
+/// Where a buffer or image URI points on disk (relative to `base`, percent-decoded), or
+/// `None` for a `data:` URI.
+fn uri_path(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
+    if uri.starts_with("data:") {
+        return None;
+    }
+    let decoded = urlencoding::decode(uri).map_or_else(|_| uri.to_string(), |d| d.into_owned());
+    let local = decoded.strip_prefix("file://").or_else(|| decoded.strip_prefix("file:"));
+    Some(match local {
+        Some(p) => std::path::PathBuf::from(p),
+        None => base.join(decoded),
+    })
+}
+
+/// The document's buffers, each loaded on its own so that an error names the buffer and the
+/// file that failed (gltf's `import_buffers` names neither).
+fn load_buffers(
+    path: &Path,
+    base: &Path,
+    doc: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<gltf::buffer::Data>, SceneError> {
+    let mut buffers = Vec::new();
+    for buffer in doc.buffers() {
+        let i = buffer.index();
+        let (key, file) = match buffer.source() {
+            gltf::buffer::Source::Uri(uri) => {
+                (format!("buffers[{i}].uri"), uri_path(base, uri).map(|p| p.display().to_string()))
+            }
+            gltf::buffer::Source::Bin => (format!("buffers[{i}]"), None),
+        };
+        let what = file.clone().unwrap_or_else(|| "the embedded data".into());
+        let data = gltf::buffer::Data::from_source_and_blob(buffer.source(), Some(base), &mut blob).map_err(
+            |e| {
+                let msg = match (&e, &file) {
+                    (gltf::Error::MissingBlob, _) => "the .glb has no binary chunk".to_string(),
+                    (gltf::Error::Io(io), Some(f)) => format!("cannot read {f}: {io}"),
+                    _ => format!("cannot load {what}: {e}"),
+                };
+                SceneError::new(path, &key, msg)
+            },
+        )?;
+        if data.len() < buffer.length() {
+            return Err(SceneError::new(
+                path,
+                format!("buffers[{i}].byteLength"),
+                format!(
+                    "{what} has {} bytes, fewer than the {} declared (truncated?)",
+                    data.len(),
+                    buffer.length()
+                ),
+            ));
+        }
+        buffers.push(data);
+    }
+    Ok(buffers)
+}
+
+/// Loads the meshes of every node of `scene`, each under its world transform (the file's
+/// node transforms after `model_from_file`). Returns the first perspective camera met.
+fn load_nodes(
+    path: &Path,
+    scene: &gltf::Scene,
+    model_from_file: DMat4,
+    material_base: u32,
+    default_material: u32,
+    buffers: &[gltf::buffer::Data],
+    geometry: &mut Geometry,
+) -> Result<Option<GltfCamera>, SceneError> {
+    let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
+    let mut camera = None;
+    // Depth-first over the node tree; an explicit stack so deep hierarchies cannot overflow.
+    let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, model_from_file, 0)).collect();
+    stack.reverse();
+    // The spec's nodes form disjoint trees: a node reached twice is shared or in a cycle, and
+    // a chain of nodes each listing the next twice is 2^n visits (a hang, not an error).
+    let mut visited = std::collections::HashSet::new();
+    while let Some((node, parent, depth)) = stack.pop() {
+        if !visited.insert(node.index()) {
+            return Err(fail(
+                &format!("nodes[{}]", node.index()),
+                "reached twice: a node may have one parent and appear in a scene once".into(),
+            ));
+        }
+        if depth > 256 {
+            return Err(fail(
+                &format!("nodes[{}]", node.index()),
+                "node hierarchy deeper than 256 (a cycle?)".into(),
+            ));
+        }
+        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+        let world = parent * local;
+        if !world.is_finite() {
+            return Err(fail(&format!("nodes[{}]", node.index()), "transform is not finite".into()));
+        }
+        if camera.is_none()
+            && let Some(cam) = node.camera()
+            && let gltf::camera::Projection::Perspective(p) = cam.projection()
+        {
+            camera = Some(GltfCamera { world, yfov: p.yfov() as f64 });
+        }
+        if let Some(mesh) = node.mesh() {
+            for prim in mesh.primitives() {
+                load_primitive(
+                    path,
+                    &mesh,
+                    &prim,
+                    world,
+                    material_base,
+                    default_material,
+                    buffers,
+                    geometry,
+                )?;
+            }
+        }
+        let children: Vec<_> = node.children().collect();
+        for child in children.into_iter().rev() {
+            stack.push((child, world, depth + 1));
+        }
+    }
+    Ok(camera)
+}
+
+/// Whether gltf's import can decode `uri`: it unwraps `urlencoding::decode` of a URI without
+/// a scheme, which fails (a panic) when the %-escapes are not UTF-8, e.g. `%FF.bin`.
+fn decodable_uri(uri: &str) -> bool {
+    uri.contains(':') || urlencoding::decode(uri).is_ok()
+}
+
+/// `gltf::Gltf::open` with three holes closed:
+/// - `open` trusts a .glb header: it allocates the header's length (up to 4 GiB) before
+///   reading the rest (found by fuzzing), and computes `length - 12`, which underflows for a
+///   length below the header's own 12 bytes. Here the file is read first and the length
+///   checked against it.
+/// - gltf-json's validation indexes `accessors` by each primitive's POSITION before checking
+///   that index (found by fuzzing), so a document is checked for that first.
+/// - gltf's import panics on a buffer URI whose %-escapes are not UTF-8 ([`decodable_uri`]).
+fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
+    use gltf::json::{mesh::Semantic, validation::Checked};
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    if bytes.starts_with(b"glTF") && bytes.len() >= 12 {
+        let length = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        if length < 12 || length as usize > bytes.len() {
+            return Err(format!("GLB header length {length} does not fit the file's {} bytes", bytes.len()));
+        }
+    }
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| e.to_string())?;
+    let json = gltf.document.as_json();
+    for (i, buffer) in json.buffers.iter().enumerate() {
+        if let Some(uri) = &buffer.uri
+            && !decodable_uri(uri)
+        {
+            return Err(format!("buffers[{i}].uri: its %-escapes do not decode to UTF-8"));
+        }
+    }
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(i) = prim.attributes.get(&Checked::Valid(Semantic::Positions))
+                && i.value() >= json.accessors.len()
+            {
+                return Err(format!(
+                    "meshes[{m}].primitives[{p}].attributes.POSITION: no accessor {} ({} accessors)",
+                    i.value(),
+                    json.accessors.len()
+                ));
+            }
+        }
+    }
+    let document = gltf::Document::from_json(gltf.document.into_json()).map_err(|e| e.to_string())?;
+    Ok(gltf::Gltf { document, blob: gltf.blob })
+}
+
+/// An accessor a primitive is read through: the key its errors name (after the primitive's),
+/// the accessor if the primitive has it, and the element shape and component types gltf's
+/// reader for it expects.
+type AccessorSpec<'a> = (String, Option<gltf::Accessor<'a>>, Dimensions, &'static [DataType]);

@@ -1,0 +1,240 @@
+//! glTF primitives into triangles: accessors checked against their declared types and the
+//! buffers before any read, strips and fans unrolled, degenerate corners kept for the
+//! scene builder to count.
+
+use super::*;
+
+#[allow(clippy::too_many_arguments)]
+pub(super) fn load_primitive(
+    path: &Path,
+    mesh: &gltf::Mesh,
+    prim: &gltf::Primitive,
+    world: DMat4,
+    material_base: u32,
+    default_material: u32,
+    buffers: &[gltf::buffer::Data],
+    geometry: &mut Geometry,
+) -> Result<(), SceneError> {
+    let key = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
+    let fail = |k: &str, msg: String| SceneError::new(path, format!("{key}{k}"), msg);
+    let mode = prim.mode();
+    if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+        return Ok(()); // points and lines have no area: nothing to render or shadow
+    }
+    let material = prim.material();
+    let mat_id = match material.index() {
+        Some(i) => material_base + i as u32,
+        None => default_material,
+    };
+    let uv_set = material
+        .pbr_metallic_roughness()
+        .base_color_texture()
+        .map(|info| info.texture_transform().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord()))
+        .unwrap_or(0);
+
+    let vertices = read_vertices(prim, uv_set, buffers, &fail)?;
+    let corners = triangle_corners(mode, &vertices.indices);
+    push_triangles(world, &vertices, corners, &material, mat_id, geometry);
+    Ok(())
+}
+
+/// POSITION, NORMAL, TEXCOORD_`uv_set` and the indices of `prim`, each checked (when
+/// present) by `check_accessor`. `fail` makes an error under the primitive's key.
+pub(super) fn checked_accessors<'a>(
+    prim: &gltf::Primitive<'a>,
+    uv_set: u32,
+    fail: &impl Fn(&str, String) -> SceneError,
+) -> Result<[AccessorSpec<'a>; 4], SceneError> {
+    // gltf's readers trust the accessors, and nothing validates these properties before
+    // here: an empty accessor overflows `count - 1` (a panic in debug builds), an index
+    // component type other than u8/u16/u32 hits `unreachable!`, a wrong element type is
+    // read as garbage, and data outside its buffer view reads as "no attribute" (which
+    // `read_vertices` reports).
+    let accessors: [AccessorSpec<'a>; 4] = [
+        (".attributes.POSITION".into(), prim.get(&Semantic::Positions), Dimensions::Vec3, &[DataType::F32]),
+        (".attributes.NORMAL".into(), prim.get(&Semantic::Normals), Dimensions::Vec3, &[DataType::F32]),
+        (
+            format!(".attributes.TEXCOORD_{uv_set}"),
+            prim.get(&Semantic::TexCoords(uv_set)),
+            Dimensions::Vec2,
+            &[DataType::F32, DataType::U8, DataType::U16],
+        ),
+        (
+            ".indices".into(),
+            prim.indices(),
+            Dimensions::Scalar,
+            &[DataType::U8, DataType::U16, DataType::U32],
+        ),
+    ];
+    for (k, accessor, dimensions, types) in &accessors {
+        if let Some(a) = accessor {
+            check_accessor(a, *dimensions, types).map_err(|msg| fail(k, msg))?;
+        }
+    }
+    Ok(accessors)
+}
+
+/// A primitive's vertex data, read and checked: positions finite, every other attribute
+/// with one element per vertex, every index naming a vertex.
+pub(super) struct Vertices {
+    positions: Vec<[f32; 3]>,
+    normals: Option<Vec<[f32; 3]>>,
+    uvs: Option<Vec<[f32; 2]>>,
+    /// The file's indices, or 0..positions.len() for a primitive without them.
+    indices: Vec<u32>,
+}
+
+/// Reads `prim`'s positions, normals, texture coordinates (set `uv_set`) and indices.
+/// `fail` makes an error under the primitive's key.
+pub(super) fn read_vertices(
+    prim: &gltf::Primitive,
+    uv_set: u32,
+    buffers: &[gltf::buffer::Data],
+    fail: &impl Fn(&str, String) -> SceneError,
+) -> Result<Vertices, SceneError> {
+    let accessors = checked_accessors(prim, uv_set, fail)?;
+    let unreadable = |k: &str, a: &Option<gltf::Accessor>| match a {
+        Some(a) => fail(
+            k,
+            format!("accessors[{}] lies outside its buffer view, or the view outside its buffer", a.index()),
+        ),
+        None => fail(k, "missing".into()),
+    };
+    let [(pos_key, pos_acc, ..), (n_key, n_acc, ..), (uv_key, uv_acc, ..), (i_key, i_acc, ..)] = &accessors;
+
+    let reader = prim.reader(|b| Some(&buffers[b.index()]));
+    let positions: Vec<[f32; 3]> = match reader.read_positions() {
+        Some(p) => p.collect(),
+        None => return Err(unreadable(pos_key, pos_acc)),
+    };
+    if let Some(i) = positions.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(fail(".attributes.POSITION", format!("vertex {i} is not finite: {:?}", positions[i])));
+    }
+    // Every attribute must have one element per vertex (the spec requires equal counts;
+    // nothing validates it before here), or indexing them by vertex would panic.
+    let same_count = |k: &str, len: usize| {
+        if len == positions.len() {
+            Ok(())
+        } else {
+            Err(fail(k, format!("{len} elements for {} vertices (POSITION)", positions.len())))
+        }
+    };
+    let normals: Option<Vec<[f32; 3]>> = match (reader.read_normals(), n_acc) {
+        (Some(n), _) => Some(n.collect()),
+        (None, Some(_)) => return Err(unreadable(n_key, n_acc)),
+        (None, None) => None,
+    };
+    if let Some(n) = &normals {
+        same_count(n_key, n.len())?;
+    }
+    let uvs: Option<Vec<[f32; 2]>> = match (reader.read_tex_coords(uv_set), uv_acc) {
+        (Some(t), _) => Some(t.into_f32().collect()),
+        (None, Some(_)) => return Err(unreadable(uv_key, uv_acc)),
+        (None, None) => None,
+    };
+    if let Some(t) = &uvs {
+        same_count(uv_key, t.len())?;
+    }
+    let indices: Vec<u32> = match (reader.read_indices(), i_acc) {
+        (Some(i), _) => i.into_u32().collect(),
+        (None, Some(_)) => return Err(unreadable(i_key, i_acc)),
+        (None, None) => (0..positions.len() as u32).collect(),
+    };
+    if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+        return Err(fail(".indices", format!("index {bad} out of range ({} vertices)", positions.len())));
+    }
+    Ok(Vertices { positions, normals, uvs, indices })
+}
+
+/// The corners of each triangle of a triangle list, strip or fan (`mode`), as indices in
+/// the file's winding.
+pub(super) fn triangle_corners(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => indices.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [indices[i], indices[i + 1], indices[i + 2]]
+                } else {
+                    [indices[i + 1], indices[i], indices[i + 2]]
+                }
+            })
+            .collect(),
+        _ => (1..indices.len().saturating_sub(1)).map(|i| [indices[0], indices[i], indices[i + 1]]).collect(),
+    }
+}
+
+/// Appends a primitive's triangles (`corners` into `vertices`) to `geometry` in world space,
+/// counting and dropping those of zero area. Those of an emissive material (without an
+/// emissive texture) also become one emitter candidate.
+pub(super) fn push_triangles(
+    world: DMat4,
+    vertices: &Vertices,
+    corners: Vec<[u32; 3]>,
+    material: &gltf::Material,
+    mat_id: u32,
+    geometry: &mut Geometry,
+) {
+    let Vertices { positions, normals, uvs, .. } = vertices;
+    let normal_from_file = DMat3::from_mat4(world).inverse().transpose();
+    let mirrored = world.determinant() < 0.0;
+    let emissive = Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0);
+    let is_emitter =
+        emissive.max_element() > 0.0 && material.emissive_texture().is_none() && emissive.is_finite();
+    let mut emitter_tris = Vec::new();
+    for c in corners {
+        let mut c = c;
+        if mirrored {
+            c.swap(1, 2); // keep the winding (and so the front face) under a mirroring transform
+        }
+        let p = c.map(|i| world.transform_point3(DVec3::from(positions[i as usize].map(f64::from))));
+        if crate::geometry::precision::is_degenerate(p) {
+            geometry.degenerate += 1;
+            continue;
+        }
+        let n = normals.as_ref().and_then(|ns| {
+            let n = c.map(|i| {
+                (normal_from_file * DVec3::from(ns[i as usize].map(f64::from))).normalize_or_zero().as_vec3()
+            });
+            n.iter().all(|v| v.is_finite() && v.length_squared() > 0.5).then_some(n)
+        });
+        let uv = match uvs {
+            Some(t) => c.map(|i| Vec2::from(t[i as usize])),
+            None => [Vec2::ZERO; 3],
+        };
+        geometry.triangles.push(SourceTriangle { p, n, uv, material: mat_id });
+        if is_emitter {
+            emitter_tris.push(p);
+        }
+    }
+    if !emitter_tris.is_empty() {
+        geometry.emitters.push(EmitterCandidate {
+            triangles: emitter_tris,
+            radiance: emissive,
+            double_sided: material.double_sided(),
+        });
+    }
+}
+
+/// Checks what gltf's accessor readers assume: at least one element (also in a sparse
+/// substitution) and the element type the reader expects.
+pub(super) fn check_accessor(
+    a: &gltf::Accessor,
+    dimensions: Dimensions,
+    types: &[DataType],
+) -> Result<(), String> {
+    if a.count() == 0 || a.sparse().is_some_and(|s| s.count() == 0) {
+        return Err(format!("accessors[{}] is empty (count must be >= 1)", a.index()));
+    }
+    if a.dimensions() != dimensions || !types.contains(&a.data_type()) {
+        return Err(format!(
+            "accessors[{}] is {:?} of {:?}; expected {:?} of one of {:?}",
+            a.index(),
+            a.dimensions(),
+            a.data_type(),
+            dimensions,
+            types
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,7 @@
+//! From files to a [`Scene`](crate::Scene): the scene file typed ([`config`]), glTF into
+//! world-space triangles ([`gltf_load`]), and the scene built in render space
+//! ([`scene_load`]).
+
+pub mod config;
+pub mod gltf_load;
+pub mod scene_load;
