@@ -53,6 +53,18 @@ pub struct Geometry {
     pub degenerate: u64,
 }
 
+/// What every primitive of one file reads beside itself: the file (its errors name it), its
+/// buffers, and where its materials start in the scene's list.
+#[derive(Clone, Copy)]
+struct FileContext<'a> {
+    path: &'a Path,
+    buffers: &'a [gltf::buffer::Data],
+    /// The scene's index of the file's material 0.
+    material_base: u32,
+    /// The scene's index of the glTF default material, for primitives without one.
+    default_material: u32,
+}
+
 /// Loads `path` into `geometry`, transformed by `model_from_file` after the file's own node
 /// transforms. Returns the file's first camera, if any.
 pub fn load_gltf(
@@ -79,7 +91,8 @@ pub fn load_gltf(
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
-    load_nodes(path, &scene, model_from_file, material_base, default_material, &buffers, geometry)
+    let file = FileContext { path, buffers: &buffers, material_base, default_material };
+    load_nodes(&file, &scene, model_from_file, geometry)
 }
 
 /// A .glb shorter than its header says ("the file is truncated: N of M bytes"), or `None`.
@@ -155,15 +168,12 @@ fn load_buffers(
 /// Loads the meshes of every node of `scene`, each under its world transform (the file's
 /// node transforms after `model_from_file`). Returns the first perspective camera met.
 fn load_nodes(
-    path: &Path,
+    file: &FileContext,
     scene: &gltf::Scene,
     model_from_file: DMat4,
-    material_base: u32,
-    default_material: u32,
-    buffers: &[gltf::buffer::Data],
     geometry: &mut Geometry,
 ) -> Result<Option<GltfCamera>, SceneError> {
-    let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
+    let fail = |key: &str, msg: String| SceneError::new(file.path, key, msg);
     let mut camera = None;
     // Depth-first over the node tree; an explicit stack so deep hierarchies cannot overflow.
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, model_from_file, 0)).collect();
@@ -197,16 +207,7 @@ fn load_nodes(
         }
         if let Some(mesh) = node.mesh() {
             for prim in mesh.primitives() {
-                load_primitive(
-                    path,
-                    &mesh,
-                    &prim,
-                    world,
-                    material_base,
-                    default_material,
-                    buffers,
-                    geometry,
-                )?;
+                load_primitive(file, &mesh, &prim, world, geometry)?;
             }
         }
         let children: Vec<_> = node.children().collect();

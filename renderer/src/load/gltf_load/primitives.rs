@@ -4,17 +4,16 @@
 
 use super::*;
 
-#[allow(clippy::too_many_arguments)]
+/// Appends the triangles of primitive `prim` of `mesh` (of the file `file` describes), under
+/// the world transform `world`, to `geometry`.
 pub(super) fn load_primitive(
-    path: &Path,
+    file: &FileContext,
     mesh: &gltf::Mesh,
     prim: &gltf::Primitive,
     world: DMat4,
-    material_base: u32,
-    default_material: u32,
-    buffers: &[gltf::buffer::Data],
     geometry: &mut Geometry,
 ) -> Result<(), SceneError> {
+    let FileContext { path, buffers, material_base, default_material } = *file;
     let key = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
     let fail = |k: &str, msg: String| SceneError::new(path, format!("{key}{k}"), msg);
     let mode = prim.mode();
