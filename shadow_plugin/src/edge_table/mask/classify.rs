@@ -24,6 +24,19 @@ use crate::depth_map::DepthMap;
 const H_REL: f32 = 1e-5;
 const H_ABS: f32 = 1e-6;
 
+/// `h` raised by the slack (`H_REL` of it, plus `H_ABS`): each threshold is moved by it
+/// whichever way makes a claim harder.
+#[inline]
+fn up(h: f32) -> f32 {
+    h + h.abs() * H_REL + H_ABS
+}
+
+/// `h` lowered by the slack ([`up`]'s mirror).
+#[inline]
+fn down(h: f32) -> f32 {
+    h - h.abs() * H_REL - H_ABS
+}
+
 /// Heights at or above this are too near the light for a blocked claim: traced rays stop
 /// `SHADOW_EPSILON` (1e-4) of their length short of it.
 const H_LIGHT: f32 = 1.0 - 1e-3;
@@ -64,13 +77,11 @@ impl Mask {
         let blocked = &mut blocked[..self.words];
         clear.copy_from_slice(&self.full);
         let mut stats = QueryStats::default();
-        let up = |h: f32| h + h.abs() * H_REL + H_ABS;
-        let down = |h: f32| h - h.abs() * H_REL - H_ABS;
         let h_cut = down(self.height_of(q.z_cut, q.pz));
         // Crossings at or above the stop are not looked at; the tables end at `h_max`.
         let h_lim = up(self.height_of(q.z_stop, q.pz)).min(self.h_max).next_down();
         let [bi, bj] = q.base;
-        self.own_pixel(q, h_cut, clear, &up, &down);
+        self.own_pixel(q, h_cut, clear);
         for b in &self.blocks {
             if b.first > h_lim {
                 break;
@@ -92,7 +103,7 @@ impl Mask {
                 }
                 if h_near > h_cut {
                     stats.lookups += 1;
-                    self.clear_in_cell(q, c, [i, j], h_near.min(h_lim), h_cut, clear, &up, &down);
+                    self.clear_in_cell(q, c, [i, j], h_near.min(h_lim), h_cut, clear);
                 }
                 let far = q.bounds.far2_at(i, j);
                 if far.is_nan() {
@@ -133,14 +144,7 @@ impl Mask {
     /// The own pixel (no in-table: every ray starts in it, at height 0, at or under the
     /// cut). Where its block's first run lies above the cut, a ray is clear there only if it
     /// leaves the pixel under that run's far end, with the next run at or under the cut.
-    fn own_pixel(
-        &self,
-        q: &ExactQuery,
-        h_cut: f32,
-        clear: &mut [u64],
-        up: &impl Fn(f32) -> f32,
-        down: &impl Fn(f32) -> f32,
-    ) {
+    fn own_pixel(&self, q: &ExactQuery, h_cut: f32, clear: &mut [u64]) {
         let [bi, bj] = q.base;
         if up(self.height_of(q.bounds.near2_at(bi, bj), q.pz)) <= h_cut {
             return;
@@ -164,7 +168,6 @@ impl Mask {
     /// over the block's first run (near bound `h_near`, capped at the stop), or passed
     /// through the gap under it (left under the run's far end, entered over the next run or
     /// that run at or under the cut).
-    #[allow(clippy::too_many_arguments)]
     #[inline]
     fn clear_in_cell(
         &self,
@@ -174,8 +177,6 @@ impl Mask {
         h_near: f32,
         h_cut: f32,
         clear: &mut [u64],
-        up: &impl Fn(f32) -> f32,
-        down: &impl Fn(f32) -> f32,
     ) {
         let Some((w0, above)) = self.below_table(c.in_table, h_near) else { return };
         let (end, next) = q.bounds.gap2_at(at[0], at[1]);
