@@ -100,7 +100,7 @@ use criterion::{BatchSize, BenchmarkId, Criterion, Throughput, criterion_group, 
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::ray::Ray;
 use renderer::util::sampling::{Rng, stream_seed};
-use renderer::{LightShadowing, PrepareContext, Scene, SceneFile, ShadowQuery, VisiblePoint};
+use renderer::{LightShadowing, PrepareContext, Scene, SceneFile, ShadingPoint, ShadowQuery};
 use shadow_plugin::bits::{MAX_WORDS, count, words};
 use shadow_plugin::depth_map::MapPoint;
 use shadow_plugin::depth_march::march_bits;
@@ -334,7 +334,7 @@ fn bench_query(c: &mut Criterion) {
 
 /// The default scene (quads only, embedded in the repository) and the visibility queries of
 /// a 160 x 120 frame at pixel centres, as the renderer makes them.
-fn default_scene() -> (Scene, Vec<VisiblePoint>, Vec<ShadowQuery>) {
+fn default_scene() -> (Scene, Vec<ShadingPoint>, Vec<ShadowQuery>) {
     let path = Path::new("scenes/default.toml");
     let file = SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));
     let scene = Scene::load(&file, path).unwrap_or_else(|e| panic!("{e}"));
@@ -346,18 +346,10 @@ fn default_scene() -> (Scene, Vec<VisiblePoint>, Vec<ShadowQuery>) {
             let d = scene.camera.ray_direction(x as f32 + 0.5, y as f32 + 0.5, w, h).normalize();
             let ray = Ray::new(Vec3A::from(scene.camera.position), Vec3A::from(d), 0.0, f32::INFINITY);
             let Some(hit) = scene.intersect(ray) else { continue };
-            visible.push(VisiblePoint {
-                p: hit.p,
-                p_error: hit.p_error,
-                n_geom: hit.n_geom,
-                n_shading: hit.n_shading,
-            });
-            if light.irradiance_factor(hit.p, hit.n_shading) > 0.0 {
+            visible.push(hit.point);
+            if light.irradiance_factor(hit.point.p, hit.point.n_shading) > 0.0 {
                 queries.push(ShadowQuery {
-                    p: hit.p,
-                    p_error: hit.p_error,
-                    n_geom: hit.n_geom,
-                    n_shading: hit.n_shading,
+                    point: hit.point,
                     pixel: [x, y],
                     seed: stream_seed(&[0, (y * w + x) as u64, 0, 0, 2]),
                 });

@@ -30,7 +30,7 @@ fn shadow_rays(scene: &Scene) -> Vec<Ray> {
             let d = scene.camera.ray_direction(x as f32 + 0.5, y as f32 + 0.5, w, h).normalize();
             let ray = Ray::new(Vec3A::from(scene.camera.position), Vec3A::from(d), 0.0, f32::INFINITY);
             let Some(hit) = scene.intersect(ray) else { continue };
-            if light.irradiance_factor(hit.p, hit.n_shading) <= 0.0 {
+            if light.irradiance_factor(hit.point.p, hit.point.n_shading) <= 0.0 {
                 continue;
             }
             let mut rng = Rng::new(stream_seed(&[(y * w + x) as u64]));
@@ -38,13 +38,11 @@ fn shadow_rays(scene: &Scene) -> Vec<Ray> {
                 let a = ((i % 4) as f32 + rng.next_f32()) / 4.0;
                 let b = ((i / 4) as f32 + rng.next_f32()) / 4.0;
                 let target: Vec3 = light.point(a, b);
-                if hit.n_shading.dot(target - hit.p) <= 0.0 {
+                if hit.point.n_shading.dot(target - hit.point.p) <= 0.0 {
                     continue;
                 }
                 let target_error = light.point_error(a, b);
-                if let Some(r) =
-                    shadow_ray(hit.p, hit.p_error, hit.n_geom, target, target_error, light.normal)
-                {
+                if let Some(r) = shadow_ray(&hit.point, target, target_error, light.normal) {
                     rays.push(r);
                 }
             }

@@ -42,11 +42,11 @@ impl LightShadowing for Checked {
             for ([a, b], verdict) in verdicts {
                 let Some(clear) = verdict else { continue };
                 let target = light.point(a, b);
-                let w = target - q.p;
-                if q.n_shading.dot(w) <= 0.0 {
+                let w = target - q.point.p;
+                if q.point.n_shading.dot(w) <= 0.0 {
                     continue; // below the horizon: not counted
                 }
-                let from = offset_origin(q.p, q.p_error, q.n_geom, w);
+                let from = offset_origin(&q.point, w);
                 let occluded =
                     scene.segment_occluded_from(from, target, light.point_error(a, b), light.normal);
                 let counter = if clear { &self.clear } else { &self.blocked };

@@ -13,7 +13,8 @@ use common::gltf_writer::{
 };
 use glam::{DMat3, DMat4, DQuat, DVec3, Vec3};
 use renderer::{
-    LightShadowing, PrepareContext, Scene, SceneError, SceneFile, ShadowQuery, Traced, TracedParams,
+    LightShadowing, PrepareContext, Scene, SceneError, SceneFile, ShadingPoint, ShadowQuery, Traced,
+    TracedParams,
 };
 use serde_json::json;
 use std::path::Path;
@@ -493,10 +494,12 @@ fn floor_visibility(scene: &Scene, points: &[DVec3]) -> Vec<f32> {
         .map(|(i, p)| {
             let p = (*p - scene.world_offset).as_vec3();
             let q = ShadowQuery {
-                p,
-                p_error: renderer::geometry::ray_origin::point_error(p),
-                n_geom: Vec3::Y,
-                n_shading: Vec3::Y,
+                point: ShadingPoint {
+                    p,
+                    p_error: renderer::geometry::ray_origin::point_error(p),
+                    n_geom: Vec3::Y,
+                    n_shading: Vec3::Y,
+                },
                 pixel: [0, 0],
                 seed: 0x9e37_79b9 + i as u64,
             };

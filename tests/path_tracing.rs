@@ -150,7 +150,7 @@ fn max_depth_two_is_the_direct_light_formula_bit_for_bit() {
             let d = scene.camera.ray_direction(x as f32 + 0.5, y as f32 + 0.5, w, h).normalize();
             let ray = obvhs::ray::Ray::new(scene.camera.position.into(), d.into(), 0.0, f32::INFINITY);
             let Some(hit) = scene.intersect(ray) else { continue };
-            let e = light.irradiance_factor(hit.p, hit.n_shading);
+            let e = light.irradiance_factor(hit.point.p, hit.point.n_shading);
             let v = two.visibility[0][i];
             let expected = if e > 0.0 {
                 scene.albedo(&hit) * light.radiance * (e * v) * std::f32::consts::FRAC_1_PI

@@ -14,11 +14,12 @@ pub mod util;
 
 pub use geometry::camera::Camera;
 pub use geometry::light::RectLight;
+pub use geometry::point::ShadingPoint;
 pub use geometry::scene::{Scene, SurfaceHit};
 pub use geometry::shaft::Shaft;
 pub use integrator::render::{Frame, RenderSettings, render};
 pub use interface::method::{KeyError, MethodParams, ShadowMethod, parse_method};
-pub use interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery, VisiblePoint};
+pub use interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
 pub use load::config::SceneFile;
 pub use methods::traced::{MAX_TRACED_SAMPLES, Traced, TracedParams, Unshadowed};
 pub use util::error::SceneError;

@@ -62,11 +62,11 @@ impl MapFallback {
     /// map with its stop depth ([`DepthMap::stop_depth`]).
     #[inline]
     pub fn locate(&self, map: &DepthMap, scene: &Scene, q: &ShadowQuery) -> Located {
-        if map.grazing(q.p, q.n_geom) {
+        if map.grazing(&q.point) {
             self.grazing.fetch_add(1, Ordering::Relaxed);
             return Located::Traced(self.trace(scene, q));
         }
-        let Some((p, mp)) = map.query_point(q.p, q.n_geom) else {
+        let Some((p, mp)) = map.query_point(&q.point) else {
             return Located::Traced(self.trace(scene, q));
         };
         if p.z <= map.z_min {

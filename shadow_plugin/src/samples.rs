@@ -2,7 +2,8 @@
 
 use crate::bits;
 use crate::depth_map::LightFrame;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
+use renderer::ShadingPoint;
 use renderer::util::sampling::{Rng, strata};
 
 /// Writes `out.len()` stratified, jittered samples over the light (an nx x ny grid, see
@@ -18,8 +19,8 @@ pub fn stratified(out: &mut [Vec2], half_size: Vec2, rng: &mut Rng) {
     }
 }
 
-/// Bits of the samples above the tangent plane of (p, n): the part of the light that the
-/// irradiance counts and visibility is a fraction of. Returns whether every sample is above
+/// Bits of the samples above `point`'s horizon (the tangent plane of its shading normal):
+/// the part of the light that the irradiance counts and visibility is a fraction of. Returns whether every sample is above
 /// (the common case, answered from the light's corners without touching the samples).
 /// `mirror` (each component 1 or -1) reflects the samples across the light's axes first
 /// (a mirrored edge-table mask's samples); the light's corners are symmetric.
@@ -28,10 +29,10 @@ pub fn above_horizon(
     frame: &LightFrame,
     samples: &[Vec2],
     mirror: Vec2,
-    p: Vec3,
-    n: Vec3,
+    point: &ShadingPoint,
     out: &mut [u64],
 ) -> bool {
+    let (p, n) = (point.p, point.n_shading);
     let n_samples = samples.len();
     let corners = [Vec2::new(-1.0, -1.0), Vec2::new(1.0, -1.0), Vec2::new(1.0, 1.0), Vec2::new(-1.0, 1.0)];
     let all_above = corners.iter().all(|c| {
@@ -56,6 +57,7 @@ pub fn above_horizon(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     /// `mirror` must read as the reflected samples themselves, bit for bit, for receivers
     /// that see part of the light (the tangent plane through the light) and all of it.
@@ -84,8 +86,9 @@ mod tests {
             for mirror in [Vec2::new(-1.0, 1.0), Vec2::new(1.0, -1.0), Vec2::new(-1.0, -1.0)] {
                 let reflected: Vec<Vec2> = samples.iter().map(|s| *s * mirror).collect();
                 let (mut got, mut want) = ([0u64; 4], [0u64; 4]);
-                let g = above_horizon(&frame, &samples, mirror, p, n, &mut got);
-                let w = above_horizon(&frame, &reflected, Vec2::ONE, p, n, &mut want);
+                let point = ShadingPoint { p, p_error: Vec3::ZERO, n_geom: n, n_shading: n };
+                let g = above_horizon(&frame, &samples, mirror, &point, &mut got);
+                let w = above_horizon(&frame, &reflected, Vec2::ONE, &point, &mut want);
                 assert_eq!((g, got), (w, want), "point {p}, normal {n}, mirror {mirror}");
                 let c = bits::count(&want);
                 partial += (c > 0 && c < 256) as u32;

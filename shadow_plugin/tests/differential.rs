@@ -14,7 +14,7 @@ use renderer::util::sampling::Rng;
 use shadow_plugin::bits::{MAX_WORDS, count, fill_first, words};
 use shadow_plugin::depth_map::{DepthMap, LightFrame, MapPoint};
 use shadow_plugin::depth_march::march_bits;
-use shadow_plugin::edge_table::{Heightfield, Mask};
+use shadow_plugin::edge_table::{Heightfield, Mask, MaskQuery};
 use shadow_plugin::march::{floor_height, for_each_crossing, stop_height};
 
 const READINGS: [Heightfield; 3] = [Heightfield::Solid, Heightfield::Shells, Heightfield::Plates];
@@ -624,7 +624,8 @@ fn mirrored_masks_match_depth_march_at_the_mirror_point() {
                 for hf in READINGS {
                     let a = march(&map, &at, &reflected, hf);
                     let mut b = [0xa5a5_a5a5_a5a5_a5a5u64; MAX_WORDS];
-                    mask.query_mirrored(&map, mp.pixel, mirror, pz, h_stop, hf, &mut b);
+                    let at = MaskQuery { map: &map, base: mp.pixel, mirror, pz, h_stop };
+                    mask.query_mirrored(&at, hf, &mut b);
                     let b = &b[..words(n)];
                     let d = differing(&a, b);
                     let visible = count(&a) as u64;

@@ -14,7 +14,7 @@
 //! Everything is computed in f64, like [`RectLight::irradiance_factor`]'s clip.
 
 use crate::geometry::light::RectLight;
-use glam::Vec3;
+use crate::geometry::point::ShadingPoint;
 
 /// Below this area (as a fraction of the light's) the part above the horizon is too thin to
 /// sample in f32 light coordinates: the caller keeps its unclipped fallback.
@@ -37,9 +37,10 @@ pub enum HorizonPart {
 }
 
 impl HorizonPart {
-    /// The part of `light` strictly above the plane through `p` with normal `n`.
-    pub fn new(light: &RectLight, p: Vec3, n: Vec3) -> Self {
-        let n = n.as_dvec3();
+    /// The part of `light` strictly above `point`'s horizon: the plane through `point.p` with
+    /// normal `point.n_shading`.
+    pub fn new(light: &RectLight, point: &ShadingPoint) -> Self {
+        let (p, n) = (point.p, point.n_shading.as_dvec3());
         let (c, u, v) = (light.center.as_dvec3(), light.u.as_dvec3(), light.v.as_dvec3());
         // f(a, b) = n . (point(a, b) - p) = f0 + fa a + fb b.
         let (fa, fb) = (n.dot(u), n.dot(v));
@@ -403,6 +404,7 @@ mod traced_tests {
     use crate::geometry::camera::Camera;
     use crate::geometry::light::RectLight;
     use crate::geometry::light_sampling::HorizonPart;
+    use crate::geometry::point::ShadingPoint;
     use crate::geometry::scene::Scene;
     use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
     use crate::load::gltf_load::Geometry;
@@ -443,10 +445,12 @@ mod traced_tests {
 
     fn query(p: Vec3, n: Vec3, seed: u64) -> ShadowQuery {
         ShadowQuery {
-            p,
-            p_error: crate::geometry::ray_origin::point_error(p),
-            n_geom: n,
-            n_shading: n,
+            point: ShadingPoint {
+                p,
+                p_error: crate::geometry::ray_origin::point_error(p),
+                n_geom: n,
+                n_shading: n,
+            },
             pixel: [0, 0],
             seed,
         }
@@ -539,14 +543,16 @@ mod traced_tests {
             let tilt = std::f32::consts::FRAC_PI_2 - to_light.y.asin() + r(-0.4, 0.4);
             let n = (Vec3::Y * tilt.cos() + away * tilt.sin()).normalize();
             let q = ShadowQuery {
-                p,
-                p_error: crate::geometry::ray_origin::point_error(p),
-                n_geom: Vec3::Y,
-                n_shading: n,
+                point: ShadingPoint {
+                    p,
+                    p_error: crate::geometry::ray_origin::point_error(p),
+                    n_geom: Vec3::Y,
+                    n_shading: n,
+                },
                 pixel: [0, 0],
                 seed: k,
             };
-            if !matches!(HorizonPart::new(&s.lights[0], p, n), HorizonPart::Clipped(_)) {
+            if !matches!(HorizonPart::new(&s.lights[0], &q.point), HorizonPart::Clipped(_)) {
                 continue;
             }
             if s.lights[0].irradiance_factor(p, n) <= 0.0 {

@@ -1,11 +1,12 @@
-//! What the rays meet and how they are cast: the runtime scene and its BVH queries, shafts,
-//! the one rule for ray origins and f32 precision, the camera, lights and their sampling,
-//! materials.
+//! What the rays meet and how they are cast: the runtime scene and its BVH queries, the
+//! shading point, shafts, the one rule for ray origins and f32 precision, the camera, lights
+//! and their sampling, materials.
 
 pub mod camera;
 pub mod light;
 pub mod light_sampling;
 pub mod material;
+pub mod point;
 pub mod precision;
 #[cfg(test)]
 mod precision_tests;

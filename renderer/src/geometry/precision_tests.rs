@@ -5,6 +5,7 @@
 use crate::geometry::camera::Camera;
 use crate::geometry::light::RectLight;
 use crate::geometry::material::Material;
+use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::{point_error, shadow_ray};
 use crate::geometry::scene::{LoadStats, Scene, SurfaceHit, TriangleShading, bvh_params};
 use crate::geometry::shaft::Shaft;
@@ -37,7 +38,7 @@ pub(crate) fn wachter_binder_origin(p: Vec3, n_geom: Vec3, toward: Vec3) -> Vec3
 
 /// A shadow ray by Wächter & Binder's rule: both ends offset by it, nothing else.
 fn wachter_binder_ray(hit: &SurfaceHit, target: Vec3, light_normal: Vec3) -> Option<Ray> {
-    let o = wachter_binder_origin(hit.p, hit.n_geom, target - hit.p);
+    let o = wachter_binder_origin(hit.point.p, hit.point.n_geom, target - hit.point.p);
     let end = wachter_binder_origin(target, light_normal, o - target);
     let d = end - o;
     let dist = d.length();
@@ -66,14 +67,12 @@ pub(crate) fn plain_visibility(
         for i in 0..n {
             let (a, b) = ((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
             let target = light.point(a, b);
-            if hit.n_shading.dot(target - hit.p) <= 0.0 {
+            if hit.point.n_shading.dot(target - hit.point.p) <= 0.0 {
                 continue;
             }
             above += 1;
             let ray = match rule {
-                Rule::ErrorBound => {
-                    shadow_ray(hit.p, hit.p_error, hit.n_geom, target, light.point_error(a, b), light.normal)
-                }
+                Rule::ErrorBound => shadow_ray(&hit.point, target, light.point_error(a, b), light.normal),
                 Rule::WachterBinder => wachter_binder_ray(hit, target, light.normal),
             };
             clear += usize::from(ray.is_none_or(|r| !scene.occluded(r)));
@@ -98,17 +97,10 @@ fn prepared(scene: &Scene, params: TracedParams) -> Traced {
 
 /// `traced` (plain and shaft-culled, 256 samples) at a hit: both answers, which must agree.
 fn traced_at(scene: &Scene, hit: &SurfaceHit, seed: u64) -> f32 {
-    let q = ShadowQuery {
-        p: hit.p,
-        p_error: hit.p_error,
-        n_geom: hit.n_geom,
-        n_shading: hit.n_shading,
-        pixel: [0, 0],
-        seed,
-    };
+    let q = ShadowQuery { point: hit.point, pixel: [0, 0], seed };
     let plain = prepared(scene, TracedParams::plain(256)).visibility(scene, &q);
     let culled = prepared(scene, TracedParams::new(256)).visibility(scene, &q);
-    assert_eq!(plain.to_bits(), culled.to_bits(), "plain {plain} culled {culled} at {}", hit.p);
+    assert_eq!(plain.to_bits(), culled.to_bits(), "plain {plain} culled {culled} at {}", hit.point.p);
     plain
 }
 
@@ -170,8 +162,8 @@ fn rope_case(clearance: f64, at: f64, umbra: f64) -> (Scene, Vec<SurfaceHit>) {
             let hit = scene.intersect(ray).expect("the floor");
             // The floor, near where aimed (the rope is >= 4 mm off these lines of sight), and
             // inside the umbra (the f32 hit lies ~1e-4 from the aim at 90 m).
-            let local = turn.inverse() * hit.p.as_dvec3();
-            assert!((hit.p.as_dvec3() - aim).length() < 1e-3, "hit {} aim {aim}", hit.p);
+            let local = turn.inverse() * hit.point.p.as_dvec3();
+            assert!((hit.point.p.as_dvec3() - aim).length() < 1e-3, "hit {} aim {aim}", hit.point.p);
             assert!(local.y.abs() < 1e-4 && local.z.abs() < umbra_half_width, "hit {local} off the umbra");
             hits.push(hit);
         }
@@ -189,7 +181,7 @@ fn a_rope_3mm_above_a_200m_floor_casts_its_full_umbra() {
         // Umbra half-width 1 - 3 x 0.05 = 0.85 mm; aimed at up to 0.7 mm.
         let (scene, hits) = rope_case(0.003, at, 0.0007);
         for (k, hit) in hits.iter().enumerate() {
-            assert_eq!(traced_at(&scene, hit, k as u64), 0.0, "rope at {at}: receiver {}", hit.p);
+            assert_eq!(traced_at(&scene, hit, k as u64), 0.0, "rope at {at}: receiver {}", hit.point.p);
         }
     }
 }
@@ -205,11 +197,11 @@ fn the_error_bound_rule_catches_a_rope_1mm_up_at_90m_where_wachter_binder_leaks(
     for hit in &hits {
         bound_leaks += usize::from(plain_visibility(&scene, &light, hit, 16, Rule::ErrorBound) > 0.0);
         wb_leaks += usize::from(plain_visibility(&scene, &light, hit, 16, Rule::WachterBinder) > 0.0);
-        let up = light.center - hit.p;
-        offset_bound = offset_bound.max(
-            crate::geometry::ray_origin::offset_origin(hit.p, hit.p_error, hit.n_geom, up).distance(hit.p),
-        );
-        offset_wb = offset_wb.max(wachter_binder_origin(hit.p, hit.n_geom, up).distance(hit.p));
+        let up = light.center - hit.point.p;
+        offset_bound = offset_bound
+            .max(crate::geometry::ray_origin::offset_origin(&hit.point, up).distance(hit.point.p));
+        offset_wb =
+            offset_wb.max(wachter_binder_origin(hit.point.p, hit.point.n_geom, up).distance(hit.point.p));
     }
     eprintln!(
         "rope 1 mm up at 90 m: leaking receivers, error bound {bound_leaks} / W&B {wb_leaks} of {}; \
@@ -240,7 +232,12 @@ fn a_lit_plane_far_from_the_origin_has_no_acne() {
                 let d = (aim - eye).normalize();
                 let ray = Ray::new(Vec3A::from(eye.as_vec3()), Vec3A::from(d.as_vec3()), 0.0, f32::INFINITY);
                 let hit = scene.intersect(ray).expect("the plane");
-                assert_eq!(traced_at(&scene, &hit, (i + 12 * j) as u64), 1.0, "at {far}: receiver {}", hit.p);
+                assert_eq!(
+                    traced_at(&scene, &hit, (i + 12 * j) as u64),
+                    1.0,
+                    "at {far}: receiver {}",
+                    hit.point.p
+                );
                 points += 1;
             }
         }
@@ -301,15 +298,12 @@ fn tiny_and_huge_triangles_are_hit_and_occlude() {
         let up = Ray::new(Vec3A::from(p), Vec3A::Y, 0.0, f32::INFINITY);
         let hit = scene.intersect(up).unwrap_or_else(|| panic!("the {s} triangle is missed"));
         assert!((hit.t - h).abs() <= 1e-6 * h, "{s}: t {} for {h}", hit.t);
-        assert_eq!(hit.n_geom, -Vec3::Y, "{s}: normal");
-        assert!(hit.p_error.is_finite() && hit.p.is_finite());
+        assert_eq!(hit.point.n_geom, -Vec3::Y, "{s}: normal");
+        assert!(hit.point.p_error.is_finite() && hit.point.p.is_finite());
         // Occludes: a receiver facing up, at p.
         let below = SurfaceHit {
             t: 0.0,
-            p,
-            p_error: point_error(p),
-            n_geom: Vec3::Y,
-            n_shading: Vec3::Y,
+            point: ShadingPoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: Vec3::Y },
             uv: Vec2::ZERO,
             material: 0,
             triangle: 0,
@@ -317,7 +311,7 @@ fn tiny_and_huge_triangles_are_hit_and_occlude() {
         };
         assert_eq!(traced_at(&scene, &below, 1), 0.0, "the {s} triangle does not occlude");
         // And its shaft is not proven clear.
-        let shaft = Shaft::new(&light, p, point_error(p), Vec3::Y, scene.coordinate_bound()).unwrap();
+        let shaft = Shaft::new(&light, &below.point, scene.coordinate_bound()).unwrap();
         assert!(!scene.shaft_clear(&shaft));
     }
 }
@@ -350,19 +344,19 @@ fn measure_false_occlusion() {
                     let ray =
                         Ray::new(Vec3A::from(scene.camera.position), Vec3A::from(d), 0.0, f32::INFINITY);
                     let Some(hit) = scene.intersect(ray) else { continue };
-                    if light.irradiance_factor(hit.p, hit.n_shading) <= 0.0 {
+                    if light.irradiance_factor(hit.point.p, hit.point.n_shading) <= 0.0 {
                         continue;
                     }
                     for j in 0..8 {
                         for i in 0..8 {
                             let (a, b) = ((i as f32 + 0.5) / 8.0, (j as f32 + 0.5) / 8.0);
                             let (target, e) = (light.point(a, b), light.point_error(a, b));
-                            if hit.n_geom.dot(target - hit.p) <= 0.0 {
+                            if hit.point.n_geom.dot(target - hit.point.p) <= 0.0 {
                                 continue;
                             }
                             lit_rays += 1;
                             let rays = [
-                                shadow_ray(hit.p, hit.p_error, hit.n_geom, target, e, light.normal),
+                                shadow_ray(&hit.point, target, e, light.normal),
                                 wachter_binder_ray(&hit, target, light.normal),
                             ];
                             for (r, ray) in rays.into_iter().enumerate() {
@@ -375,16 +369,15 @@ fn measure_false_occlusion() {
                     }
                     for (r, rule) in [Rule::ErrorBound, Rule::WachterBinder].into_iter().enumerate() {
                         let apex = match rule {
-                            Rule::ErrorBound => crate::geometry::ray_origin::offset_origin(
-                                hit.p,
-                                hit.p_error,
-                                hit.n_geom,
-                                hit.n_geom,
-                            ),
-                            Rule::WachterBinder => wachter_binder_origin(hit.p, hit.n_geom, hit.n_geom),
+                            Rule::ErrorBound => {
+                                crate::geometry::ray_origin::offset_origin(&hit.point, hit.point.n_geom)
+                            }
+                            Rule::WachterBinder => {
+                                wachter_binder_origin(hit.point.p, hit.point.n_geom, hit.point.n_geom)
+                            }
                         };
                         let Some(shaft) =
-                            Shaft::with_apex(light, [0.0, 1.0], [0.0, 1.0], hit.p, hit.n_geom, apex, bound)
+                            Shaft::with_apex(light, [0.0, 1.0], [0.0, 1.0], &hit.point, apex, bound)
                         else {
                             continue;
                         };
@@ -399,13 +392,11 @@ fn measure_false_occlusion() {
                             for i in 0..8 {
                                 let (a, b) = ((i as f32 + 0.5) / 8.0, (j as f32 + 0.5) / 8.0);
                                 let (target, e) = (light.point(a, b), light.point_error(a, b));
-                                if !crate::geometry::shaft::covers(hit.p, apex, hit.n_geom, target, e) {
+                                if !crate::geometry::shaft::covers(&hit.point, apex, target, e) {
                                     continue;
                                 }
                                 let ray = match rule {
-                                    Rule::ErrorBound => {
-                                        shadow_ray(hit.p, hit.p_error, hit.n_geom, target, e, light.normal)
-                                    }
+                                    Rule::ErrorBound => shadow_ray(&hit.point, target, e, light.normal),
                                     Rule::WachterBinder => wachter_binder_ray(&hit, target, light.normal),
                                 };
                                 blocked += usize::from(ray.is_some_and(|r| scene.occluded(r)));

@@ -9,6 +9,7 @@
 //! origin the same way) and then by [`SHADOW_EPSILON`] of its length, the intersector's
 //! rounding of `t` near the far end. Nothing scales with the scene's size.
 
+use crate::geometry::point::ShadingPoint;
 use glam::{Vec3, Vec3A};
 use obvhs::ray::Ray;
 
@@ -44,21 +45,30 @@ pub fn interpolation_error(b: [f32; 3], v: [Vec3; 3]) -> Vec3 {
 
 /// The error bound to give a surface point known only by its f32 position (a query made by
 /// hand, a point rounded once from an exact one): gamma(7) of its magnitude, plus the floor
-/// of [`interpolation_error`]. A hit's own bound is [`crate::SurfaceHit::p_error`].
+/// of [`interpolation_error`]. A hit's own bound is its point's
+/// [`crate::ShadingPoint::p_error`].
 #[inline]
 pub fn point_error(p: Vec3) -> Vec3 {
     gamma(7) * p.abs() + Vec3::splat(f32::MIN_POSITIVE)
 }
 
-/// The origin of a ray leaving surface point `p` (error bound `p_error`, geometric normal
-/// `n_geom`) in direction `toward` (any vector on the side it leaves to): `p` moved by
-/// `d = |n_geom| . p_error` along `n_geom` (past the error box, so on the right side of the
-/// surface's plane), each component then rounded one float further away from `p`.
+/// The origin of a ray leaving `point` in direction `toward` (any vector on the side it
+/// leaves to): `point.p` moved by `d = |n_geom| . p_error` along `n_geom` (past the error
+/// box, so on the right side of the surface's plane), each component then rounded one float
+/// further away from `p`.
 #[inline]
-pub fn offset_origin(p: Vec3, p_error: Vec3, n_geom: Vec3, toward: Vec3) -> Vec3 {
-    let d = n_geom.abs().dot(p_error);
-    let mut offset = d * n_geom;
-    if toward.dot(n_geom) < 0.0 {
+pub fn offset_origin(point: &ShadingPoint, toward: Vec3) -> Vec3 {
+    offset_past_error(point.p, point.p_error, point.n_geom, toward)
+}
+
+/// The rule of [`offset_origin`] for any surface point `p` (error bound `p_error`, unit
+/// normal `n`): the shading point's origin, and a shadow ray's end on the light
+/// ([`shadow_ray_from`]).
+#[inline]
+fn offset_past_error(p: Vec3, p_error: Vec3, n: Vec3, toward: Vec3) -> Vec3 {
+    let d = n.abs().dot(p_error);
+    let mut offset = d * n;
+    if toward.dot(n) < 0.0 {
         offset = -offset;
     }
     let po = p + offset;
@@ -74,30 +84,28 @@ pub fn offset_origin(p: Vec3, p_error: Vec3, n_geom: Vec3, toward: Vec3) -> Vec3
     Vec3::new(away(po.x, offset.x), away(po.y, offset.y), away(po.z, offset.z))
 }
 
-/// A shadow ray from surface point `p` (error `p_error`, geometric normal `n_geom`) to
-/// `target`, a point on a surface of normal `target_normal` with error `target_error`
-/// (a light point: [`crate::RectLight::point_error`]). It starts at [`offset_origin`], aims at
-/// the target moved by its own bound toward the origin's side of its plane (rounded away
-/// likewise), and stops [`SHADOW_EPSILON`] of the way short of that. Unit direction, so `t` is
-/// a distance. `None` if nothing is left of the segment.
+/// A shadow ray from surface point `point` to `target`, a point on a surface of normal
+/// `target_normal` with error `target_error` (a light point:
+/// [`crate::RectLight::point_error`]). It starts at [`offset_origin`], aims at the target
+/// moved by its own bound toward the origin's side of its plane (rounded away likewise), and
+/// stops [`SHADOW_EPSILON`] of the way short of that. Unit direction, so `t` is a distance.
+/// `None` if nothing is left of the segment.
 #[inline]
 pub fn shadow_ray(
-    p: Vec3,
-    p_error: Vec3,
-    n_geom: Vec3,
+    point: &ShadingPoint,
     target: Vec3,
     target_error: Vec3,
     target_normal: Vec3,
 ) -> Option<Ray> {
-    shadow_ray_from(offset_origin(p, p_error, n_geom, target - p), target, target_error, target_normal)
+    shadow_ray_from(offset_origin(point, target - point.p), target, target_error, target_normal)
 }
 
-/// [`shadow_ray`] from an origin already offset (`offset_origin(p, p_error, n_geom, target -
-/// p)`, which takes one of two values per surface point: a caller tracing many rays from one
+/// [`shadow_ray`] from an origin already offset (`offset_origin(point, target - point.p)`,
+/// which takes one of two values per surface point: a caller tracing many rays from one
 /// point computes it once per side).
 #[inline]
 pub fn shadow_ray_from(origin: Vec3, target: Vec3, target_error: Vec3, target_normal: Vec3) -> Option<Ray> {
-    let end = offset_origin(target, target_error, target_normal, origin - target);
+    let end = offset_past_error(target, target_error, target_normal, origin - target);
     segment_ray(origin, end)
 }
 
@@ -136,13 +144,16 @@ mod tests {
         let p = Vec3::new(100.0, -3.0, 0.25);
         let e = Vec3::new(1e-5, 2e-6, 1e-7);
         let n = Vec3::new(0.6, 0.8, 0.0);
-        let up = offset_origin(p, e, n, n);
-        let down = offset_origin(p, e, n, -n);
+        let point = ShadingPoint { p, p_error: e, n_geom: n, n_shading: n };
+        let up = offset_origin(&point, n);
+        let down = offset_origin(&point, -n);
         let d = n.abs().dot(e);
         assert!((up - p).dot(n) >= d * 0.999 && (down - p).dot(n) <= -d * 0.999);
         // Rounded away: never onto p, even for a zero bound.
         let e = interpolation_error([1.0, 0.0, 0.0], [Vec3::new(1.0, 0.0, 2.0), Vec3::X, Vec3::Z]);
-        let o = offset_origin(Vec3::new(1.0, 0.0, 2.0), e, Vec3::Y, Vec3::Y);
+        let point =
+            ShadingPoint { p: Vec3::new(1.0, 0.0, 2.0), p_error: e, n_geom: Vec3::Y, n_shading: Vec3::Y };
+        let o = offset_origin(&point, Vec3::Y);
         assert!(o.y >= f32::MIN_POSITIVE && o.x == 1.0 && o.z == 2.0, "{o}");
     }
 }

@@ -5,6 +5,7 @@
 use crate::geometry::camera::Camera;
 use crate::geometry::light::RectLight;
 use crate::geometry::material::{Material, Texture};
+use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::{interpolation_error, shadow_ray, shadow_ray_from};
 use glam::{DVec3, Vec2, Vec3};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::Ray, triangle::Triangle};
@@ -23,15 +24,9 @@ pub struct TriangleShading {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfaceHit {
     pub t: f32,
-    /// The hit point, interpolated from the triangle's vertices (not `o + t d`).
-    pub p: Vec3,
-    /// A bound on `p`'s own rounding, per component ([`interpolation_error`]): the one rule
-    /// for ray origins offsets by it ([`crate::geometry::ray_origin::offset_origin`]).
-    pub p_error: Vec3,
-    /// Unit geometric normal, on the side of the incoming ray.
-    pub n_geom: Vec3,
-    /// Unit interpolated normal, flipped to the same side as `n_geom`.
-    pub n_shading: Vec3,
+    /// The hit point (interpolated from the triangle's vertices, not `o + t d`), its error
+    /// bound ([`interpolation_error`]) and its normals.
+    pub point: ShadingPoint,
     pub uv: Vec2,
     pub material: u32,
     /// Index into the BVH-ordered triangle arrays.
@@ -259,10 +254,7 @@ impl Scene {
         }
         Some(SurfaceHit {
             t: hit.t,
-            p,
-            p_error,
-            n_geom,
-            n_shading,
+            point: ShadingPoint { p, p_error, n_geom, n_shading },
             uv: self.uv_at(slot, b1, b2),
             material: sh.material,
             triangle: slot as u32,
@@ -281,21 +273,18 @@ impl Scene {
         }
     }
 
-    /// Whether the segment from surface point `p` (error bound `p_error`, geometric normal
-    /// `n_geom`) to `target` (error bound `target_error`, on a surface of normal
-    /// `target_normal`) is blocked, with the one rule at both ends
-    /// ([`crate::geometry::ray_origin::shadow_ray`]).
+    /// Whether the segment from surface point `point` to `target` (error bound
+    /// `target_error`, on a surface of normal `target_normal`) is blocked, with the one rule
+    /// at both ends ([`crate::geometry::ray_origin::shadow_ray`]).
     #[inline]
     pub fn segment_occluded(
         &self,
-        p: Vec3,
-        p_error: Vec3,
-        n_geom: Vec3,
+        point: &ShadingPoint,
         target: Vec3,
         target_error: Vec3,
         target_normal: Vec3,
     ) -> bool {
-        match shadow_ray(p, p_error, n_geom, target, target_error, target_normal) {
+        match shadow_ray(point, target, target_error, target_normal) {
             Some(ray) => self.occluded(ray),
             None => false,
         }

@@ -30,6 +30,7 @@
 //! point not behind the plane).
 
 use crate::geometry::light::RectLight;
+use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::{SHADOW_EPSILON, gamma, offset_origin};
 use crate::geometry::scene::Scene;
 use glam::{Vec3, Vec3A};
@@ -58,16 +59,15 @@ impl Face {
     }
 }
 
-/// Whether the shadow ray from surface point `p` (origin `origin`, geometric normal
-/// `n_geom`) to light point `target` (error bound `target_error`) lies in that point's
-/// shafts: its target is at least the apex's height `h_o` over the tangent plane (and
-/// `2 SHADOW_EPSILON` of it: the ray stops that fraction short), plus the target's error
-/// (twice: its rounding and its offset) and gamma(16) of its distance, so the whole ray stays
-/// at or above `h_o`, over the cut.
+/// Whether the shadow ray from surface point `point` (from `origin`) to light point `target`
+/// (error bound `target_error`) lies in that point's shafts: its target is at least the
+/// apex's height `h_o` over the tangent plane (and `2 SHADOW_EPSILON` of it: the ray stops
+/// that fraction short), plus the target's error (twice: its rounding and its offset) and
+/// gamma(16) of its distance, so the whole ray stays at or above `h_o`, over the cut.
 #[inline]
-pub fn covers(p: Vec3, origin: Vec3, n_geom: Vec3, target: Vec3, target_error: Vec3) -> bool {
-    let w = target - p;
-    Cover::new(p, origin, n_geom, target_error).covers(n_geom.dot(w), w)
+pub fn covers(point: &ShadingPoint, origin: Vec3, target: Vec3, target_error: Vec3) -> bool {
+    let w = target - point.p;
+    Cover::new(point, origin, target_error).covers(point.n_geom.dot(w), w)
 }
 
 /// [`covers`] with its per-point terms evaluated once: for every target whose error bound is
@@ -83,8 +83,8 @@ pub struct Cover {
 
 impl Cover {
     #[inline]
-    pub fn new(p: Vec3, origin: Vec3, n_geom: Vec3, target_error: Vec3) -> Self {
-        let h_o = n_geom.dot(origin - p);
+    pub fn new(point: &ShadingPoint, origin: Vec3, target_error: Vec3) -> Self {
+        let h_o = point.n_geom.dot(origin - point.p);
         Cover {
             floor: h_o * (1.0 + 2.0 * SHADOW_EPSILON)
                 + 2.0 * (target_error.x + target_error.y + target_error.z),
@@ -102,7 +102,8 @@ impl Cover {
 /// corners: the height over the tangent plane is affine, so the lowest sample is no lower
 /// than the lowest corner less the corners' and the sample's rounding; the distance term is
 /// taken at the farthest corner.
-pub fn covers_light(p: Vec3, origin: Vec3, n_geom: Vec3, light: &RectLight) -> bool {
+pub fn covers_light(point: &ShadingPoint, origin: Vec3, light: &RectLight) -> bool {
+    let (p, n_geom) = (point.p, point.n_geom);
     let corners = light.corners();
     let e = light.max_point_error().element_sum();
     let far = corners.iter().map(|&c| (c - p).abs().element_sum()).fold(0.0, f32::max) + e;
@@ -129,15 +130,15 @@ pub struct Shaft {
 }
 
 impl Shaft {
-    /// The shaft of surface point `p` (error bound `p_error`, unit geometric normal `n_geom`,
-    /// on the side the light is tested from) toward `light`, in a scene whose coordinates are
-    /// at most `scene_bound` in magnitude ([`Scene::coordinate_bound`]).
+    /// The shaft of surface point `point` (its geometric normal on the side the light is
+    /// tested from) toward `light`, in a scene whose coordinates are at most `scene_bound` in
+    /// magnitude ([`Scene::coordinate_bound`]).
     ///
-    /// It holds every shadow ray of [`crate::geometry::ray_origin::shadow_ray`] from `p` to a light
-    /// point the [`covers`] test accepts. `None` if the light's rectangle is degenerate or the
+    /// It holds every shadow ray of [`crate::geometry::ray_origin::shadow_ray`] from the point to a
+    /// light point the [`covers`] test accepts. `None` if the light's rectangle is degenerate or the
     /// apex is not clearly in front of it.
-    pub fn new(light: &RectLight, p: Vec3, p_error: Vec3, n_geom: Vec3, scene_bound: f32) -> Option<Shaft> {
-        Self::to_part(light, [0.0, 1.0], [0.0, 1.0], p, p_error, n_geom, scene_bound)
+    pub fn new(light: &RectLight, point: &ShadingPoint, scene_bound: f32) -> Option<Shaft> {
+        Self::to_part(light, [0.0, 1.0], [0.0, 1.0], point, scene_bound)
     }
 
     /// The shaft to the part `a in [a0, a1], b in [b0, b1]` of the light (the coordinates of
@@ -146,25 +147,24 @@ impl Shaft {
         light: &RectLight,
         a: [f32; 2],
         b: [f32; 2],
-        p: Vec3,
-        p_error: Vec3,
-        n_geom: Vec3,
+        point: &ShadingPoint,
         scene_bound: f32,
     ) -> Option<Shaft> {
-        let origin = offset_origin(p, p_error, n_geom, n_geom);
-        Self::with_apex(light, a, b, p, n_geom, origin, scene_bound)
+        let origin = offset_origin(point, point.n_geom);
+        Self::with_apex(light, a, b, point, origin, scene_bound)
     }
 
-    /// [`Shaft::to_part`] for rays that all start at `apex`, above `p`'s tangent plane.
+    /// [`Shaft::to_part`] for rays that all start at `apex`, above the point's tangent plane
+    /// (its own error bound is not read).
     pub(crate) fn with_apex(
         light: &RectLight,
         a: [f32; 2],
         b: [f32; 2],
-        p: Vec3,
-        n_geom: Vec3,
+        point: &ShadingPoint,
         apex: Vec3,
         scene_bound: f32,
     ) -> Option<Shaft> {
+        let (p, n_geom) = (point.p, point.n_geom);
         if !is_positive((a[1] - a[0]) * (b[1] - b[0])) || !is_positive(light.area()) {
             return None;
         }
@@ -362,33 +362,28 @@ pub const LEAVES: usize = 4;
 /// within noise of the best threshold everywhere.
 pub const MIN_SAMPLES_PER_SHAFT: usize = 64;
 
-/// Which parts of the light `p` sees through a clear shaft: bit `x + LEAVES * y` is set when
-/// no triangle can meet the shaft to leaf (x, y), where light sample (i, j) of an `nx` x `ny`
-/// strata grid lies in leaf (i * lx / nx, j * ly / ny), `lx = min(LEAVES, nx)` (likewise y).
-/// Tests the whole light, then halves each part that is not clear, down to leaves or parts of
-/// fewer than [`MIN_SAMPLES_PER_SHAFT`] samples; returns the mask and how many shafts it
-/// tested.
+/// Which parts of the light `point` sees through a clear shaft: bit `x + LEAVES * y` is set
+/// when no triangle can meet the shaft to leaf (x, y), where light sample (i, j) of an
+/// `nx` x `ny` strata grid lies in leaf (i * lx / nx, j * ly / ny), `lx = min(LEAVES, nx)`
+/// (likewise y). Tests the whole light, then halves each part that is not clear, down to
+/// leaves or parts of fewer than [`MIN_SAMPLES_PER_SHAFT`] samples; returns the mask and how
+/// many shafts it tested.
 pub fn clear_leaves(
     scene: &Scene,
     light: &RectLight,
-    p: Vec3,
-    p_error: Vec3,
-    n_geom: Vec3,
+    point: &ShadingPoint,
     strata: (u32, u32),
 ) -> (u64, u32) {
-    clear_leaves_mapped(scene, light, p, p_error, n_geom, strata, |a, b| (a, b))
+    clear_leaves_mapped(scene, light, point, strata, |a, b| (a, b))
 }
 
 /// [`clear_leaves`] for samples drawn through a map of the strata square onto the light:
 /// `part(a, b)` gives a part of the light (a, b ranges) holding the image of the strata block
 /// `a x b` (e.g. [`crate::geometry::light_sampling::HorizonWarp::bounds`]).
-#[allow(clippy::too_many_arguments)]
 pub fn clear_leaves_mapped(
     scene: &Scene,
     light: &RectLight,
-    p: Vec3,
-    p_error: Vec3,
-    n_geom: Vec3,
+    point: &ShadingPoint,
     strata: (u32, u32),
     part: impl Fn([f32; 2], [f32; 2]) -> ([f32; 2], [f32; 2]),
 ) -> (u64, u32) {
@@ -397,7 +392,7 @@ pub fn clear_leaves_mapped(
     if lx == 0 || ly == 0 {
         return (0, 0);
     }
-    let apex = offset_origin(p, p_error, n_geom, n_geom);
+    let apex = offset_origin(point, point.n_geom);
     let scene_bound = scene.coordinate_bound();
     // The first stratum of leaf x (of l leaves over n strata); the light coordinate of the
     // leaf's lower edge is that over n.
@@ -419,7 +414,7 @@ pub fn clear_leaves_mapped(
         let a = [i0 as f32 / nx as f32, i1 as f32 / nx as f32];
         let b = [j0 as f32 / ny as f32, j1 as f32 / ny as f32];
         let (a, b) = part(a, b);
-        let Some(shaft) = Shaft::with_apex(light, a, b, p, n_geom, apex, scene_bound) else { continue };
+        let Some(shaft) = Shaft::with_apex(light, a, b, point, apex, scene_bound) else { continue };
         tests += 1;
         if scene.shaft_clear(&shaft) {
             mask |= leaf_rect_bits([x0, x1], [y0, y1]);

@@ -29,7 +29,8 @@ fn light() -> RectLight {
 const FLOOR: Quad = ([0.0, 0.0, 0.0], [20.0, 0.0, 0.0], [0.0, 0.0, -20.0]);
 
 fn clear(s: &Scene, p: Vec3, n: Vec3) -> bool {
-    let shaft = Shaft::new(&s.lights[0], p, point_error(p), n, s.coordinate_bound()).expect("a shaft");
+    let point = ShadingPoint { p, p_error: point_error(p), n_geom: n, n_shading: n };
+    let shaft = Shaft::new(&s.lights[0], &point, s.coordinate_bound()).expect("a shaft");
     s.shaft_clear(&shaft)
 }
 
@@ -90,10 +91,12 @@ fn culling_gives_the_plain_traced_bits() {
             let x = r(3.05, 4.95);
             let p = Vec3::new(x, 0.5 * (x - 3.0), r(-1.9, 1.9));
             ShadowQuery {
-                p,
-                p_error: point_error(p),
-                n_geom: ramp_normal,
-                n_shading: ramp_normal,
+                point: ShadingPoint {
+                    p,
+                    p_error: point_error(p),
+                    n_geom: ramp_normal,
+                    n_shading: ramp_normal,
+                },
                 pixel: [0, 0],
                 seed: k,
             }
@@ -102,9 +105,13 @@ fn culling_gives_the_plain_traced_bits() {
             let tilt = r(0.0, 1.48);
             let az = r(0.0, std::f32::consts::TAU);
             let n = Vec3::new(tilt.sin() * az.cos(), tilt.cos(), tilt.sin() * az.sin());
-            ShadowQuery { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: n, pixel: [0, 0], seed: k }
+            ShadowQuery {
+                point: ShadingPoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: n },
+                pixel: [0, 0],
+                seed: k,
+            }
         };
-        let (p, n) = (q.p, q.n_shading);
+        let (p, n) = (q.point.p, q.point.n_shading);
         let (a, b) = (plain.visibility(&s, &q), culled.visibility(&s, &q));
         assert_eq!(a.to_bits(), b.to_bits(), "point {p} normal {n}: plain {a} culled {b}");
         points += 1;
@@ -121,19 +128,20 @@ fn leaves_cover_the_strata_grid_and_parts_below_the_threshold_are_not_tested() {
     let s = scene(&[FLOOR], light());
     // Open sky: the whole light is clear in one test, every leaf set.
     let e = point_error(Vec3::ZERO);
-    let (mask, tests) = clear_leaves(&s, &s.lights[0], Vec3::ZERO, e, Vec3::Y, (32, 32));
+    let origin = ShadingPoint { p: Vec3::ZERO, p_error: e, n_geom: Vec3::Y, n_shading: Vec3::Y };
+    let (mask, tests) = clear_leaves(&s, &s.lights[0], &origin, (32, 32));
     assert_eq!((mask.count_ones(), tests), ((LEAVES * LEAVES) as u32, 1));
     for (i, j) in [(0, 0), (31, 0), (0, 31), (31, 31), (13, 22)] {
         assert_ne!(mask & leaf_bit(i, j, (32, 32)), 0);
     }
     // 48 samples: fewer than MIN_SAMPLES_PER_SHAFT, nothing tested, nothing proven.
-    assert_eq!(clear_leaves(&s, &s.lights[0], Vec3::ZERO, e, Vec3::Y, (8, 6)), (0, 0));
+    assert_eq!(clear_leaves(&s, &s.lights[0], &origin, (8, 6)), (0, 0));
     // A plate over a corner of the light, seen from below its centre: the whole light
     // and one quadrant are blocked, the other three quadrants proven clear (4 leaves
     // each), and the blocked quadrant split once more.
     let plate = ([-0.25, 1.9, -0.25], [0.3, 0.0, 0.0], [0.0, 0.0, -0.3]);
     let s = scene(&[FLOOR, plate], light());
-    let (mask, tests) = clear_leaves(&s, &s.lights[0], Vec3::ZERO, e, Vec3::Y, (32, 32));
+    let (mask, tests) = clear_leaves(&s, &s.lights[0], &origin, (32, 32));
     assert!(mask.count_ones() >= 12 && mask.count_ones() < 16, "mask {mask:#x}");
     assert!(tests >= 5, "{tests} tests");
 }
@@ -199,10 +207,7 @@ fn a_long_thin_shaft_is_not_proven_clear_through_a_blocker() {
     let (plain, culled) = plain_and_culled(&s);
     let p = Vec3::new(-27.44314, -40.0, -29.92025);
     let q = ShadowQuery {
-        p,
-        p_error: point_error(p),
-        n_geom: Vec3::Y,
-        n_shading: Vec3::Y,
+        point: ShadingPoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: Vec3::Y },
         pixel: [0, 0],
         seed: 1,
     };
@@ -211,16 +216,8 @@ fn a_long_thin_shaft_is_not_proven_clear_through_a_blocker() {
     assert_eq!(a.to_bits(), b.to_bits(), "plain {a} culled {b}");
     // The apex lies inside its side faces (with their slack) for every part of the light.
     for (a0, b0) in [(0.0, 0.0), (0.5, 0.5), (0.25, 0.75), (0.75, 0.0)] {
-        let shaft = Shaft::to_part(
-            &light,
-            [a0, a0 + 0.25],
-            [b0, b0 + 0.25],
-            q.p,
-            q.p_error,
-            q.n_geom,
-            s.coordinate_bound(),
-        )
-        .unwrap();
+        let shaft =
+            Shaft::to_part(&light, [a0, a0 + 0.25], [b0, b0 + 0.25], &q.point, s.coordinate_bound()).unwrap();
         for f in &shaft.faces[..4] {
             assert!(!f.outside(shaft.vertices[0]), "apex outside a side face of part ({a0}, {b0})");
         }
@@ -263,8 +260,11 @@ fn a_ceiling_flush_with_the_light_is_not_separated_from_grazing_rays() {
         for k in 0..300u64 {
             let below = 10f64.powf(-7.0 + 5.5 * rng.next_f32() as f64);
             let p = to_world(DVec3::new(3.0, 2.0 - below, rng.next_f32() as f64 - 0.5)).as_vec3();
-            let q =
-                ShadowQuery { p, p_error: point_error(p), n_geom: n, n_shading: n, pixel: [0, 0], seed: k };
+            let q = ShadowQuery {
+                point: ShadingPoint { p, p_error: point_error(p), n_geom: n, n_shading: n },
+                pixel: [0, 0],
+                seed: k,
+            };
             differ += usize::from(plain.visibility(&s, &q).to_bits() != culled.visibility(&s, &q).to_bits());
         }
     }

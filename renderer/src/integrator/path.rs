@@ -10,6 +10,7 @@
 //! triangles (it reflects off them by their albedo); emission arrives by next-event
 //! estimation only.
 
+use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::offset_origin;
 use crate::geometry::scene::{Scene, SurfaceHit};
 use crate::interface::shadowing::{LightShadowing, ShadowQuery};
@@ -62,6 +63,19 @@ impl PathId {
     }
 }
 
+/// What every vertex of a frame's paths reads: the scene, each light's method, how deep
+/// paths go, and whether queries are timed. Built once per pixel; `Copy`, a few words.
+#[derive(Clone, Copy)]
+pub struct PathContext<'a> {
+    pub scene: &'a Scene,
+    /// One method per light, in `scene.lights`' order.
+    pub methods: &'a [Box<dyn LightShadowing>],
+    /// [`crate::RenderSettings::max_depth`]: vertices 2 to `max_depth - 1` are bounces.
+    pub max_depth: u32,
+    /// Time each query into [`VertexQueries::seconds`] ([`crate::RenderSettings::profile`]).
+    pub profile: bool,
+}
+
 /// Shadow queries per path vertex (index 0 = the primary hit): how many, the rays traced for
 /// them, how many traced none, how many a depth-map method could not answer from its map
 /// ([`crate::util::profile::count_fallback`]), and (profiling) their seconds.
@@ -88,28 +102,20 @@ pub fn merge_vertex_queries(a: &mut Vec<VertexQueries>, b: &[VertexQueries]) {
     }
 }
 
-/// One light's visibility at `hit` (vertex `vertex`), counted in `stats[vertex - 1]`.
-#[allow(clippy::too_many_arguments)]
+/// Light `k`'s visibility at `point` (vertex `vertex` of path `id`), by the light's method,
+/// counted in `stats[vertex - 1]`.
 pub fn shadow_query(
-    scene: &Scene,
-    method: &dyn LightShadowing,
-    hit: &SurfaceHit,
+    ctx: &PathContext,
+    point: &ShadingPoint,
     id: &PathId,
     k: usize,
     vertex: u32,
-    profile: bool,
     stats: &mut [VertexQueries],
 ) -> f32 {
-    let q = ShadowQuery {
-        p: hit.p,
-        p_error: hit.p_error,
-        n_geom: hit.n_geom,
-        n_shading: hit.n_shading,
-        pixel: id.pixel,
-        seed: id.shadow_seed(k, vertex),
-    };
-    let (t0, w0) = (profile.then(Instant::now), Work::now());
-    let v = method.visibility(scene, &q);
+    let method = ctx.methods[k].as_ref();
+    let q = ShadowQuery { point: *point, pixel: id.pixel, seed: id.shadow_seed(k, vertex) };
+    let (t0, w0) = (ctx.profile.then(Instant::now), Work::now());
+    let v = method.visibility(ctx.scene, &q);
     debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", method.name());
     let work = Work::now().since(w0);
     let s = &mut stats[vertex as usize - 1];
@@ -131,44 +137,41 @@ pub fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
     (r * phi.cos() * t + r * phi.sin() * b + (1.0 - u1).max(0.0).sqrt() * n).normalize()
 }
 
-/// The next vertex of a path leaving `hit`: a cosine-weighted bounce, None when it leaves
+/// The next vertex of a path leaving `point`: a cosine-weighted bounce, None when it leaves
 /// through the geometric surface (a shading normal tilted past it) or hits nothing.
-pub fn bounce(scene: &Scene, hit: &SurfaceHit, rng: &mut Rng) -> Option<SurfaceHit> {
+pub fn bounce(scene: &Scene, point: &ShadingPoint, rng: &mut Rng) -> Option<SurfaceHit> {
     let (u1, u2) = (rng.next_f32(), rng.next_f32());
-    let d = cosine_direction(hit.n_shading, u1, u2);
-    if d.dot(hit.n_geom) <= 0.0 {
+    let d = cosine_direction(point.n_shading, u1, u2);
+    if d.dot(point.n_geom) <= 0.0 {
         return None;
     }
-    let origin = offset_origin(hit.p, hit.p_error, hit.n_geom, d);
+    let origin = offset_origin(point, d);
     scene.intersect(Ray::new(Vec3A::from(origin), Vec3A::from(d), 0.0, f32::INFINITY))
 }
 
-/// The radiance a path from the primary hit `primary` (albedo `albedo`) gathers from its
-/// bounces, vertices 2 to `max_depth - 1`, each with next-event estimation to every light:
-/// 0 when `max_depth <= 2`.
-#[allow(clippy::too_many_arguments)]
+/// The radiance a path from the primary hit's point `primary` (albedo `albedo`) gathers from
+/// its bounces, vertices 2 to `ctx.max_depth - 1`, each with next-event estimation to every
+/// light: 0 when `max_depth <= 2`.
 pub fn indirect(
-    scene: &Scene,
-    methods: &[Box<dyn LightShadowing>],
-    primary: &SurfaceHit,
+    ctx: &PathContext,
+    primary: &ShadingPoint,
     albedo: Vec3,
     id: &PathId,
-    max_depth: u32,
-    profile: bool,
     stats: &mut [VertexQueries],
 ) -> Vec3 {
+    let scene = ctx.scene;
     let mut rng = id.bounce_rng();
-    let (mut beta, mut hit, mut l) = (albedo, *primary, Vec3::ZERO);
-    for vertex in 2..max_depth {
-        let Some(next) = bounce(scene, &hit, &mut rng) else { break };
+    let (mut beta, mut point, mut l) = (albedo, *primary, Vec3::ZERO);
+    for vertex in 2..ctx.max_depth {
+        let Some(next) = bounce(scene, &point, &mut rng) else { break };
         let a = scene.albedo(&next);
         let mut direct = Vec3::ZERO;
         for (k, light) in scene.lights.iter().enumerate() {
-            let e = light.irradiance_factor(next.p, next.n_shading);
+            let e = light.irradiance_factor(next.point.p, next.point.n_shading);
             if e <= 0.0 {
                 continue;
             }
-            let v = shadow_query(scene, methods[k].as_ref(), &next, id, k, vertex, profile, stats);
+            let v = shadow_query(ctx, &next.point, id, k, vertex, stats);
             direct += light.radiance * (e * v);
         }
         l += beta * a * direct * std::f32::consts::FRAC_1_PI;
@@ -180,7 +183,7 @@ pub fn indirect(
             }
             beta /= survive;
         }
-        hit = next;
+        point = next.point;
     }
     l
 }

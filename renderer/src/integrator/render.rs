@@ -3,9 +3,10 @@
 //! number is keyed by (seed, pixel, sample, light), so the bytes do not depend on the number
 //! of threads.
 
+use crate::geometry::point::ShadingPoint;
 use crate::geometry::scene::{Scene, SurfaceHit};
-use crate::integrator::path::{PathId, VertexQueries, merge_vertex_queries};
-use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, VisiblePoint};
+use crate::integrator::path::{PathContext, PathId, VertexQueries, merge_vertex_queries};
+use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError};
 use crate::util::profile::{PixelCost, Work};
 use crate::util::sampling::{Rng, strata, stream_seed};
 use glam::{Vec3, Vec3A};
@@ -197,7 +198,7 @@ pub fn frame_warnings(
         // The camera is the render-space origin: |p| is the distance from it.
         let (mut far, mut imprecise) = (0.0f64, 0u64);
         for hit in hits.iter().flatten() {
-            let d = hit.p.as_dvec3().length();
+            let d = hit.point.p.as_dvec3().length();
             far = far.max(d);
             let t = &scene.triangles[hit.triangle as usize];
             let size = [t.v1 - t.v0, t.v2 - t.v1, t.v0 - t.v2].iter().map(|e| e.length()).fold(0.0, f32::max);
@@ -246,10 +247,10 @@ fn primary_hits(
 
 /// The first vertex after the primary hit of each pixel's first sample, as
 /// [`crate::integrator::path::indirect`] will find it (the same random stream).
-fn first_bounces(scene: &Scene, hits: &[Option<SurfaceHit>], settings: &RenderSettings) -> Vec<VisiblePoint> {
+fn first_bounces(scene: &Scene, hits: &[Option<SurfaceHit>], settings: &RenderSettings) -> Vec<ShadingPoint> {
     let RenderSettings { width, spp, seed, .. } = *settings;
     let (w, spp) = (width as usize, spp as usize);
-    let rows: Vec<Vec<VisiblePoint>> = hits
+    let rows: Vec<Vec<ShadingPoint>> = hits
         .par_chunks(w * spp)
         .enumerate()
         .map(|(y, row)| {
@@ -259,8 +260,8 @@ fn first_bounces(scene: &Scene, hits: &[Option<SurfaceHit>], settings: &RenderSe
                     let pixel_index = (y * w + x) as u64;
                     let id =
                         PathId { pixel: [x as u32, y as u32], pixel_index, sample: 0, seed, shadow_salt: 0 };
-                    let next = crate::integrator::path::bounce(scene, hit, &mut id.bounce_rng())?;
-                    Some(VisiblePoint::from(&next))
+                    let next = crate::integrator::path::bounce(scene, &hit.point, &mut id.bounce_rng())?;
+                    Some(next.point)
                 })
                 .collect()
         })
@@ -269,12 +270,12 @@ fn first_bounces(scene: &Scene, hits: &[Option<SurfaceHit>], settings: &RenderSe
 }
 
 /// Every primary hit as the point `prepare` reads.
-fn visible_points(hits: &[Option<SurfaceHit>]) -> Vec<VisiblePoint> {
+fn visible_points(hits: &[Option<SurfaceHit>]) -> Vec<ShadingPoint> {
     // Counted first, so the vector is allocated once: grown by doubling, 33 M hits cost
     // 4.8 s here (copies and page faults of GBs), a parallel flattened collect 25 s.
     let count = hits.par_iter().filter(|h| h.is_some()).count();
     let mut out = Vec::with_capacity(count);
-    out.extend(hits.iter().flatten().map(VisiblePoint::from));
+    out.extend(hits.iter().flatten().map(|hit| hit.point));
     out
 }
 
@@ -282,7 +283,7 @@ fn visible_points(hits: &[Option<SurfaceHit>]) -> Vec<VisiblePoint> {
 fn prepare_lights(
     scene: &Scene,
     methods: &mut [Box<dyn LightShadowing>],
-    visible: &[VisiblePoint],
+    visible: &[ShadingPoint],
     settings: &RenderSettings,
 ) -> Result<(), ShadowError> {
     let RenderSettings { seed, mask_budget_bytes, .. } = *settings;
@@ -411,6 +412,7 @@ fn shade_pixel(
     let RenderSettings { width, spp, seed, profile, max_depth, shadow_salt, .. } = *settings;
     let (w, spp_us) = (width as usize, spp as usize);
     let pixel_index = (y * w + x) as u64;
+    let ctx = PathContext { scene, methods, max_depth, profile };
     // The primary hits' direct light, summed as the direct-light renderer sums it (so
     // max_depth = 2 gives its bytes), and the paths' indirect light beside it.
     let (mut sum, mut indirect) = (Vec3::ZERO, Vec3::ZERO);
@@ -423,36 +425,18 @@ fn shade_pixel(
         let albedo = scene.albedo(hit);
         let id = PathId { pixel: [x as u32, y as u32], pixel_index, sample: s as u64, seed, shadow_salt };
         for (k, light) in scene.lights.iter().enumerate() {
-            let e = light.irradiance_factor(hit.p, hit.n_shading);
+            let e = light.irradiance_factor(hit.point.p, hit.point.n_shading);
             if e <= 0.0 {
                 continue; // no light reaches: skip the shadow query
             }
-            let v = crate::integrator::path::shadow_query(
-                scene,
-                methods[k].as_ref(),
-                hit,
-                &id,
-                k,
-                1,
-                profile,
-                &mut tally.vertices,
-            );
+            let v = crate::integrator::path::shadow_query(&ctx, &hit.point, &id, k, 1, &mut tally.vertices);
             tally.facing[k] += 1;
             tally.lit[k] += u64::from(v > 0.0);
             vis_px[k] += v;
             sum += albedo * light.radiance * (e * v);
         }
         if max_depth > 2 {
-            indirect += crate::integrator::path::indirect(
-                scene,
-                methods,
-                hit,
-                albedo,
-                &id,
-                max_depth,
-                profile,
-                &mut tally.vertices,
-            );
+            indirect += crate::integrator::path::indirect(&ctx, &hit.point, albedo, &id, &mut tally.vertices);
         }
     }
     for v in vis_px.iter_mut() {

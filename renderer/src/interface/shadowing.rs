@@ -8,8 +8,8 @@
 //! through `&self`, without allocating, from any thread.
 
 use crate::geometry::light::RectLight;
+use crate::geometry::point::ShadingPoint;
 use crate::geometry::scene::Scene;
-use glam::Vec3;
 
 /// What a method may look at when it prepares for one light.
 pub struct PrepareContext<'a> {
@@ -18,7 +18,7 @@ pub struct PrepareContext<'a> {
     pub light_index: usize,
     /// Every primary hit of the frame (what the camera sees), for methods that fit a depth
     /// map or other structure to it.
-    pub visible: &'a [VisiblePoint],
+    pub visible: &'a [ShadingPoint],
     /// The frame's seed.
     pub seed: u64,
     /// Most bytes a method may hold for this light (`edge_table`'s masks), from
@@ -27,36 +27,13 @@ pub struct PrepareContext<'a> {
     pub mask_budget_bytes: u64,
 }
 
-/// A primary hit, as handed to `prepare`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct VisiblePoint {
-    pub p: Vec3,
-    /// `p`'s own error bound ([`crate::SurfaceHit::p_error`]).
-    pub p_error: Vec3,
-    pub n_geom: Vec3,
-    pub n_shading: Vec3,
-}
-
-impl From<&crate::SurfaceHit> for VisiblePoint {
-    fn from(hit: &crate::SurfaceHit) -> Self {
-        VisiblePoint { p: hit.p, p_error: hit.p_error, n_geom: hit.n_geom, n_shading: hit.n_shading }
-    }
-}
-
 /// One visibility question: the fraction of the light (its part above the tangent plane of
-/// `n_shading`) that `p` sees unoccluded.
+/// `point.n_shading`) that `point.p` sees unoccluded.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ShadowQuery {
-    /// The shading point (render space), on the surface: not offset.
-    pub p: Vec3,
-    /// A bound on `p`'s own rounding, per component ([`crate::SurfaceHit::p_error`]); ray
-    /// origins are offset by it ([`crate::geometry::ray_origin`]). Zero for a point known exactly.
-    pub p_error: Vec3,
-    /// Unit geometric normal, on the side the camera ray came from. Ray origins are offset
-    /// along it ([`crate::geometry::ray_origin::offset_origin`]).
-    pub n_geom: Vec3,
-    /// Unit shading normal (same side): defines the horizon.
-    pub n_shading: Vec3,
+    /// The shading point, on the surface (not offset), with its error bound and normals
+    /// (on the side the camera ray came from).
+    pub point: ShadingPoint,
     /// Pixel (x, y), for methods that key anything on it.
     pub pixel: [u32; 2],
     /// Seed of this point's random stream: a pure function of (frame seed, pixel, primary

@@ -161,21 +161,20 @@ impl LightShadowing for Traced {
         // Where the horizon cuts the light, the strata are warped onto the part above it
         // ([`crate::geometry::light_sampling::HorizonWarp`]): every sample counts. The whole light
         // above, or too thin a part above, keeps the plain grid (and its fallback below).
-        let warp = match HorizonPart::new(light, q.p, q.n_shading) {
+        let point = &q.point;
+        let warp = match HorizonPart::new(light, point) {
             HorizonPart::Clipped(w) => Some(w),
             HorizonPart::Whole | HorizonPart::Degenerate => None,
         };
         let clear = if self.params.shaft_culling {
             let (mask, tests) = match &warp {
-                None => shaft::clear_leaves(scene, light, q.p, q.p_error, q.n_geom, (nx, ny)),
+                None => shaft::clear_leaves(scene, light, point, (nx, ny)),
                 // A leaf's samples lie in the image of its strata block: prove the shaft to
                 // that image's bounding rectangle.
-                Some(w) => {
-                    shaft::clear_leaves_mapped(scene, light, q.p, q.p_error, q.n_geom, (nx, ny), |a, b| {
-                        let (a, b) = w.bounds(a.map(f64::from), b.map(f64::from));
-                        (a.map(|x| x as f32), b.map(|x| x as f32))
-                    })
-                }
+                Some(w) => shaft::clear_leaves_mapped(scene, light, point, (nx, ny), |a, b| {
+                    let (a, b) = w.bounds(a.map(f64::from), b.map(f64::from));
+                    (a.map(|x| x as f32), b.map(|x| x as f32))
+                }),
             };
             self.shafts.fetch_add(tests as u64, Ordering::Relaxed);
             self.shafts_clear.fetch_add(mask.count_ones() as u64, Ordering::Relaxed);
@@ -184,21 +183,18 @@ impl LightShadowing for Traced {
             0
         };
         // The origin every ray above the tangent plane starts from (the shafts' apex).
-        let origin = offset_origin(q.p, q.p_error, q.n_geom, q.n_geom);
+        let origin = offset_origin(point, point.n_geom);
         // The whole light proven clear and wholly covered: every counted sample is unblocked,
         // so the answer is 1 without drawing them. Measured: drawing 1024 samples per such
         // point cost ~10 us, most of a clear point's time.
-        if clear != 0
-            && clear == shaft::all_leaves((nx, ny))
-            && shaft::covers_light(q.p, origin, q.n_geom, light)
-        {
+        if clear != 0 && clear == shaft::all_leaves((nx, ny)) && shaft::covers_light(point, origin, light) {
             return 1.0;
         }
         // Per point, not per sample: the covered test's terms with the light's largest point
         // error (every sample's own bound is at most that: a stricter test, so it still
         // accepts only rays the shaft holds), and the ray origin on the lit side (the one
         // `offset_origin` gives every target with n_geom . (target - p) >= 0).
-        let cover = shaft::Cover::new(q.p, origin, q.n_geom, light.max_point_error());
+        let cover = shaft::Cover::new(point, origin, light.max_point_error());
         let (lx, ly) = shaft::leaves_per_axis((nx, ny));
         let mut rng = Rng::new(q.seed);
         let (mut above, mut unblocked, mut traced) = (0u32, 0u32, 0u32);
@@ -221,14 +217,14 @@ impl LightShadowing for Traced {
                     (a, b) = (wa as f32, wb as f32);
                 }
                 let target = light.point(a, b);
-                let w = target - q.p;
-                if q.n_shading.dot(w) <= 0.0 {
+                let w = target - point.p;
+                if point.n_shading.dot(w) <= 0.0 {
                     // Below the horizon: not part of the light this point sees. (A warped
                     // sample is above it in f64; f32 rounding may still drop one at the cut.)
                     continue;
                 }
                 above += 1;
-                let height = q.n_geom.dot(w);
+                let height = point.n_geom.dot(w);
                 // `max_point_error` bounds points with a, b in [0, 1] (a warped sample off the
                 // unit square by a rounding is traced instead).
                 if row_clear & (1 << col) != 0
@@ -239,9 +235,9 @@ impl LightShadowing for Traced {
                     continue;
                 }
                 traced += 1;
-                // `offset_origin(p, p_error, n_geom, target - p)`: the lit side's origin unless
-                // the target is under the geometric tangent plane.
-                let from = if height < 0.0 { offset_origin(q.p, q.p_error, q.n_geom, w) } else { origin };
+                // `offset_origin(point, target - p)`: the lit side's origin unless the target is
+                // under the geometric tangent plane.
+                let from = if height < 0.0 { offset_origin(point, w) } else { origin };
                 if !scene.segment_occluded_from(from, target, light.point_error(a, b), light.normal) {
                     unblocked += 1;
                 }
@@ -276,6 +272,7 @@ impl LightShadowing for Traced {
 mod tests {
     use super::*;
     use crate::geometry::camera::Camera;
+    use crate::geometry::point::ShadingPoint;
     use crate::load::gltf_load::Geometry;
     use glam::DVec3;
     use glam::Vec3;
@@ -312,10 +309,12 @@ mod tests {
 
     fn query(p: Vec3, seed: u64) -> ShadowQuery {
         ShadowQuery {
-            p,
-            p_error: crate::geometry::ray_origin::point_error(p),
-            n_geom: Vec3::Y,
-            n_shading: Vec3::Y,
+            point: ShadingPoint {
+                p,
+                p_error: crate::geometry::ray_origin::point_error(p),
+                n_geom: Vec3::Y,
+                n_shading: Vec3::Y,
+            },
             pixel: [0, 0],
             seed,
         }
@@ -385,10 +384,12 @@ mod tests {
         let scene = quads_scene(&[FLOOR], light);
         let t = traced(&scene, 64);
         let q = ShadowQuery {
-            p: Vec3::new(0.0, 1.0, 0.0),
-            p_error: crate::geometry::ray_origin::point_error(Vec3::new(0.0, 1.0, 0.0)),
-            n_geom: Vec3::X,
-            n_shading: Vec3::X,
+            point: ShadingPoint {
+                p: Vec3::new(0.0, 1.0, 0.0),
+                p_error: crate::geometry::ray_origin::point_error(Vec3::new(0.0, 1.0, 0.0)),
+                n_geom: Vec3::X,
+                n_shading: Vec3::X,
+            },
             pixel: [0, 0],
             seed: 3,
         };

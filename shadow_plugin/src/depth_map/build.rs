@@ -9,7 +9,7 @@ use glam::{Vec2, Vec3, Vec3A};
 use obvhs::ray::Ray;
 use rayon::prelude::*;
 use renderer::geometry::ray_origin::gamma;
-use renderer::{RectLight, Scene, VisiblePoint};
+use renderer::{RectLight, Scene, ShadingPoint};
 
 /// How many closed meshes stacked on each other one pixel's slab may span.
 const MAX_STACKED_SOLIDS: usize = 4;
@@ -36,7 +36,7 @@ struct Surfaces<'a> {
 /// error along the axis, plus the rounding of `t` itself (gamma(8) of it).
 #[inline]
 fn depth_error(frame: &LightFrame, hit: &renderer::SurfaceHit) -> f32 {
-    frame.z.abs().dot(hit.p_error) + gamma(8) * hit.t
+    frame.z.abs().dot(hit.point.p_error) + gamma(8) * hit.t
 }
 
 impl Surfaces<'_> {
@@ -53,7 +53,11 @@ impl Surfaces<'_> {
         // zero for surfaces facing the light squarely, large for grazing ones (capped at
         // MAX_SLOPE).
         let z = hit.t;
-        let n = Vec3::new(hit.n_geom.dot(frame.x), hit.n_geom.dot(frame.y), hit.n_geom.dot(frame.z));
+        let n = Vec3::new(
+            hit.point.n_geom.dot(frame.x),
+            hit.point.n_geom.dot(frame.y),
+            hit.point.n_geom.dot(frame.z),
+        );
         let facing = (n.x * img.x + n.y * img.y + n.z).abs();
         let slope = (n.truncate().length() / facing.max(1e-12)).min(MAX_SLOPE);
         let e = depth_error(frame, &hit);
@@ -131,7 +135,7 @@ impl DepthMap {
     pub fn build(
         scene: &Scene,
         light: &RectLight,
-        visible: &[VisiblePoint],
+        visible: &[ShadingPoint],
         params: &DepthMapParams,
     ) -> Self {
         let _span = tracing::info_span!("depth_map", resolution = params.resolution).entered();

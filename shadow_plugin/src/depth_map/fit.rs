@@ -5,7 +5,7 @@
 use super::{DepthMapParams, LightFrame, MAX_TAN, RECEIVER_TRIM, grazing};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use renderer::{RectLight, Scene, Shaft, VisiblePoint};
+use renderer::{RectLight, Scene, ShadingPoint, Shaft};
 
 /// Where a map's pixels lie.
 pub(super) struct Frustum {
@@ -21,7 +21,7 @@ pub(super) fn fit(
     scene: &Scene,
     light: &RectLight,
     frame: &LightFrame,
-    visible: &[VisiblePoint],
+    visible: &[ShadingPoint],
     params: &DepthMapParams,
     res: u32,
 ) -> Frustum {
@@ -46,7 +46,7 @@ fn receiver_box(
     scene: &Scene,
     light: &RectLight,
     frame: &LightFrame,
-    visible: &[VisiblePoint],
+    visible: &[ShadingPoint],
     params: &DepthMapParams,
 ) -> (Vec2, Vec2, f32) {
     let scene_bound = scene.coordinate_bound();
@@ -66,9 +66,7 @@ fn receiver_box(
         .par_iter()
         .filter_map(|v| {
             let p = frame.light_from_world(v.p);
-            if p.z <= frame.depth_tolerance(v.p, v.p_error)
-                || grazing(frame, params.grazing_cos, v.p, v.n_geom)
-            {
+            if p.z <= frame.depth_tolerance(v.p, v.p_error) || grazing(frame, params.grazing_cos, v) {
                 return None;
             }
             let e = light.irradiance_factor(v.p, v.n_shading);
@@ -76,8 +74,7 @@ fn receiver_box(
                 return None;
             }
             let fitted = !params.fit_shadowed
-                || Shaft::new(light, v.p, v.p_error, v.n_geom, scene_bound)
-                    .is_none_or(|shaft| !scene.shaft_clear(&shaft));
+                || Shaft::new(light, v, scene_bound).is_none_or(|shaft| !scene.shaft_clear(&shaft));
             Some((p, e, fitted))
         })
         .collect();

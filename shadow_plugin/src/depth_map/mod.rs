@@ -19,7 +19,7 @@ use crate::march::{floor_height, region_reach};
 pub use bounds::DepthBounds;
 use glam::{Vec2, Vec3};
 use pyramid::MinPyramid;
-use renderer::{KeyError, RectLight};
+use renderer::{KeyError, RectLight, ShadingPoint};
 use serde::{Deserialize, Serialize};
 
 /// The light's frame: origin at its centre, x and y along its edges, z along its normal
@@ -89,7 +89,7 @@ pub struct DepthMapParams {
     /// Slope-scaled bias in depth-map pixels: each texel's floor is pushed back by
     /// `slope_bias x` the depth change of its surface across one pixel footprint (from the
     /// surface normal at the texel), plus the texel's own hit error along the map's axis
-    /// ([`renderer::SurfaceHit::p_error`]) and the rounding of its depth. Too little: lit surfaces
+    /// ([`renderer::ShadingPoint::p_error`]) and the rounding of its depth. Too little: lit surfaces
     /// shadow themselves (acne); too much: contact shadows detach. 1.0 by measurement.
     pub slope_bias: f32,
     /// Thickness of each floor's slab, in pixel footprints at its depth, for the `plates`
@@ -237,8 +237,8 @@ pub struct DepthMap {
 
 /// See [`DepthMapParams::grazing_cos`].
 #[inline]
-fn grazing(frame: &LightFrame, grazing_cos: f32, p: Vec3, n_geom: Vec3) -> bool {
-    grazing_cos > 0.0 && frame.facing(p, n_geom) < grazing_cos
+fn grazing(frame: &LightFrame, grazing_cos: f32, point: &ShadingPoint) -> bool {
+    grazing_cos > 0.0 && frame.facing(point.p, point.n_geom) < grazing_cos
 }
 
 /// Share of the receivers' total irradiance, per side and axis, left out of the frustum.
@@ -328,7 +328,8 @@ impl DepthMap {
     /// floor of the surface beside it (a box wall under the box's top), while surfaces
     /// facing the light (floors at contact shadows) barely move.
     #[inline]
-    pub fn lookup_point(&self, p: Vec3, n_geom: Vec3, normal_offset: f32) -> Vec3 {
+    pub fn lookup_point(&self, point: &ShadingPoint, normal_offset: f32) -> Vec3 {
+        let (p, n_geom) = (point.p, point.n_geom);
         let pl = self.light_from_world(p);
         if normal_offset == 0.0 || pl.z <= 0.0 {
             return pl;
@@ -341,16 +342,16 @@ impl DepthMap {
     /// Whether the light grazes a shading point's surface ([`DepthMapParams::grazing_cos`]):
     /// traced rays answer it.
     #[inline]
-    pub fn grazing(&self, p: Vec3, n_geom: Vec3) -> bool {
-        grazing(&self.frame, self.grazing_cos, p, n_geom)
+    pub fn grazing(&self, point: &ShadingPoint) -> bool {
+        grazing(&self.frame, self.grazing_cos, point)
     }
 
-    /// Where a shading point (`p`, geometric normal `n_geom`) reads the map: its light-space
-    /// lookup point ([`DepthMap::lookup_point`]) and map point, or None where that falls
-    /// outside the map (every depth-map method answers those with traced rays).
+    /// Where a shading point reads the map: its light-space lookup point
+    /// ([`DepthMap::lookup_point`]) and map point, or None where that falls outside the map
+    /// (every depth-map method answers those with traced rays).
     #[inline]
-    pub fn query_point(&self, p: Vec3, n_geom: Vec3) -> Option<(Vec3, MapPoint)> {
-        let pl = self.lookup_point(p, n_geom, self.normal_offset);
+    pub fn query_point(&self, point: &ShadingPoint) -> Option<(Vec3, MapPoint)> {
+        let pl = self.lookup_point(point, self.normal_offset);
         let mp = self.locate(pl).filter(|mp| self.contains(mp.pixel, mp.pixel))?;
         Some((pl, mp))
     }

@@ -2,7 +2,7 @@
 
 use super::*;
 use renderer::geometry::ray_origin::point_error;
-use renderer::{RectLight, Scene, Shaft, VisiblePoint};
+use renderer::{RectLight, Scene, ShadingPoint, Shaft};
 
 fn map(depth: Vec<f32>) -> DepthMap {
     let frame = LightFrame { origin: Vec3::ZERO, x: Vec3::X, y: Vec3::Y, z: Vec3::Z, half_size: Vec2::ONE };
@@ -36,7 +36,7 @@ fn a_nan_depth_is_refused() {
 
 /// A 20 x 20 floor under a 1 x 1 light 2 up, with a 0.2 x 0.2 card 0.5 over it if
 /// `card`, and `n` x `n` visible floor points 0.1 apart from `corner` (x, z).
-fn floor_scene(card: bool, n: usize, corner: [f32; 2]) -> (Scene, RectLight, Vec<VisiblePoint>) {
+fn floor_scene(card: bool, n: usize, corner: [f32; 2]) -> (Scene, RectLight, Vec<ShadingPoint>) {
     use glam::DVec3;
     use renderer::{Camera, load::gltf_load::Geometry};
     use std::time::Duration;
@@ -56,14 +56,14 @@ fn floor_scene(card: bool, n: usize, corner: [f32; 2]) -> (Scene, RectLight, Vec
     let visible = (0..n * n)
         .map(|k| {
             let p = Vec3::new(corner[0] + 0.1 * (k % n) as f32, 0.0, corner[1] + 0.1 * (k / n) as f32);
-            VisiblePoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: Vec3::Y }
+            ShadingPoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: Vec3::Y }
         })
         .collect();
     (scene, light, visible)
 }
 
 /// 64^2 maps of the same receivers fitted to every lit one and to the shadowed ones.
-fn both_fits(scene: &Scene, light: &RectLight, visible: &[VisiblePoint]) -> (DepthMap, DepthMap) {
+fn both_fits(scene: &Scene, light: &RectLight, visible: &[ShadingPoint]) -> (DepthMap, DepthMap) {
     let params = DepthMapParams::new(64);
     let all_lit = DepthMap::build(scene, light, visible, &DepthMapParams { fit_shadowed: false, ..params });
     (all_lit, DepthMap::build(scene, light, visible, &params))
@@ -81,16 +81,17 @@ fn a_map_fitted_to_the_shadowed_receivers_covers_them_finely() {
     assert!(fitted.pitch * 4.0 < all_lit.pitch, "pitch {} against {}", fitted.pitch, all_lit.pitch);
     let mut shadowed = 0;
     for v in &visible {
-        let shaft = Shaft::new(&light, v.p, v.p_error, v.n_geom, scene.coordinate_bound()).unwrap();
+        let shaft = Shaft::new(&light, v, scene.coordinate_bound()).unwrap();
         if !scene.shaft_clear(&shaft) {
             shadowed += 1;
-            assert!(fitted.query_point(v.p, v.n_geom).is_some(), "{} outside", v.p);
+            assert!(fitted.query_point(v).is_some(), "{} outside", v.p);
         }
     }
     assert!(shadowed > 20, "{shadowed} shadowed receivers");
     let far = Vec3::new(1.5, 0.0, 1.5);
-    assert!(fitted.query_point(far, Vec3::Y).is_none());
-    assert!(all_lit.query_point(far, Vec3::Y).is_some());
+    let far = ShadingPoint { p: far, p_error: point_error(far), n_geom: Vec3::Y, n_shading: Vec3::Y };
+    assert!(fitted.query_point(&far).is_none());
+    assert!(all_lit.query_point(&far).is_some());
 }
 
 /// With nothing that may shadow anything in view, `fit_shadowed` fits the same map as
@@ -100,5 +101,5 @@ fn with_no_shadow_in_view_the_fit_is_the_lit_receivers_fit() {
     let (scene, light, visible) = floor_scene(false, 50, [-3.0, -2.0]);
     let (all_lit, fitted) = both_fits(&scene, &light, &visible);
     assert_eq!((fitted.origin, fitted.pitch), (all_lit.origin, all_lit.pitch));
-    assert!(fitted.query_point(visible[0].p, Vec3::Y).is_some());
+    assert!(fitted.query_point(&visible[0]).is_some());
 }

@@ -155,7 +155,7 @@ impl LightShadowing for DepthMarch {
         let mut visible = [0u64; MAX_WORDS];
         let mut above = [0u64; MAX_WORDS];
         march_bits(map, &mp, samples, z_stop, self.heightfield, &mut visible[..w]);
-        samples::above_horizon(frame, samples, Vec2::ONE, q.p, q.n_shading, &mut above[..w]);
+        samples::above_horizon(frame, samples, Vec2::ONE, &q.point, &mut above[..w]);
         let n_above = bits::count(&above[..w]);
         if n_above == 0 {
             return 1.0;

@@ -126,6 +126,19 @@ impl Default for Split {
     }
 }
 
+/// One query read through one mask: what [`ExactMap::classify`] and
+/// [`ExactMap::shaft_bits`] share. Built once per query, on the stack.
+struct ExactRead<'a> {
+    scene: &'a Scene,
+    q: &'a ShadowQuery,
+    m: &'a ExactMask,
+    /// Where the point falls on the map (None off it, or behind the light's plane).
+    mp: Option<MapPoint>,
+    /// The point's ray origin above its tangent plane (`offset_origin` toward `n_geom`): the
+    /// shafts' apex, and the start of every ray to a target above that plane.
+    origin: Vec3,
+}
+
 /// How one exact query went, for the counters.
 #[derive(Default, Clone, Copy)]
 pub struct ExactStats {
@@ -176,7 +189,7 @@ impl ExactMap {
 
     /// The `quantile` of w = 1/z_stop - 1/pz over the receivers on the map: how far (in
     /// depth-independent units) the masks must march for that share of them.
-    pub fn stop_reach_quantile(&self, visible: &[renderer::VisiblePoint], quantile: f64) -> f32 {
+    pub fn stop_reach_quantile(&self, visible: &[renderer::ShadingPoint], quantile: f64) -> f32 {
         use rayon::prelude::*;
         // `visible` is prepare's subsample (at most QUANTILE_POINTS): an estimate suffices.
         let mut needed: Vec<f32> = visible
@@ -224,19 +237,10 @@ impl ExactMap {
         1.0 / (w + 1.0 / pz)
     }
 
-    /// Bits of the samples whose rays' part inside `[lo, hi]` (depths) lies in a shaft
-    /// proven clear: the whole light, then quarters, then sixteenths of what is not.
-    #[allow(clippy::too_many_arguments)]
-    fn shaft_bits(
-        &self,
-        scene: &Scene,
-        q: &ShadowQuery,
-        m: &ExactMask,
-        lo: f32,
-        hi: f32,
-        out: &mut [u64],
-        stats: &mut ExactStats,
-    ) {
+    /// Bits of the samples (of `read.m`) whose rays' part inside `[lo, hi]` (depths) lies in
+    /// a shaft proven clear: the whole light, then quarters, then sixteenths of what is not.
+    fn shaft_bits(&self, read: &ExactRead, lo: f32, hi: f32, out: &mut [u64], stats: &mut ExactStats) {
+        let ExactRead { scene, q, m, .. } = *read;
         out.fill(0);
         let frame = &self.near.frame;
         let finite = |z: f32| if z.is_finite() { z.abs() } else { 0.0 };
@@ -252,8 +256,7 @@ impl ExactMap {
             let step = 1.0 / PARTS as f32;
             let a = [x[0] as f32 * step, x[1] as f32 * step];
             let b = [y[0] as f32 * step, y[1] as f32 * step];
-            let Some(shaft) = Shaft::to_part(&self.light, a, b, q.p, q.p_error, q.n_geom, self.scene_bound)
-            else {
+            let Some(shaft) = Shaft::to_part(&self.light, a, b, &q.point, self.scene_bound) else {
                 continue;
             };
             stats.shafts += 1;
@@ -293,12 +296,13 @@ impl ExactMap {
         let words = bits::words(n);
         let mut above = [0u64; MAX_WORDS];
         let above = &mut above[..words];
-        crate::samples::above_horizon(frame, &m.mask.samples, Vec2::ONE, q.p, q.n_shading, above);
+        crate::samples::above_horizon(frame, &m.mask.samples, Vec2::ONE, &q.point, above);
         let n_above = bits::count(above);
         if (n_above as f32) < HORIZON_SHARE * n as f32 {
             return None;
         }
-        let origin = offset_origin(q.p, q.p_error, q.n_geom, q.n_geom);
+        let origin = offset_origin(&q.point, q.point.n_geom);
+        let read = ExactRead { scene, q, m, mp, origin };
         let mut decided = [0u64; MAX_WORDS];
         let decided = &mut decided[..words];
         let mut blocked = [0u64; MAX_WORDS];
@@ -307,7 +311,7 @@ impl ExactMap {
         let clear = &mut clear[..words];
         let mut split = Split::default();
         if !traced_only {
-            split = self.classify(scene, q, m, mp, origin, clear, blocked, stats);
+            split = self.classify(&read, clear, blocked, stats);
             for k in 0..words {
                 decided[k] = (clear[k] | blocked[k]) & above[k];
             }
@@ -322,9 +326,8 @@ impl ExactMap {
                 todo &= todo - 1;
                 let [a, b] = m.ab[r];
                 let target = light.point(a, b);
-                let w = target - q.p;
-                let from =
-                    if q.n_geom.dot(w) < 0.0 { offset_origin(q.p, q.p_error, q.n_geom, w) } else { origin };
+                let w = target - q.point.p;
+                let from = if q.point.n_geom.dot(w) < 0.0 { offset_origin(&q.point, w) } else { origin };
                 let Some(mut ray) = shadow_ray_from(from, target, light.point_error(a, b), light.normal)
                 else {
                     unblocked += 1; // nothing left of the segment: as traced, unblocked
@@ -369,17 +372,9 @@ impl ExactMap {
     ) -> Vec<([f32; 2], Option<bool>)> {
         let words = bits::words(m.mask.samples.len());
         let (mut clear, mut blocked) = ([0u64; MAX_WORDS], [0u64; MAX_WORDS]);
-        let origin = offset_origin(q.p, q.p_error, q.n_geom, q.n_geom);
-        self.classify(
-            scene,
-            q,
-            m,
-            Some(mp),
-            origin,
-            &mut clear[..words],
-            &mut blocked[..words],
-            &mut ExactStats::default(),
-        );
+        let origin = offset_origin(&q.point, q.point.n_geom);
+        let read = ExactRead { scene, q, m, mp: Some(mp), origin };
+        self.classify(&read, &mut clear[..words], &mut blocked[..words], &mut ExactStats::default());
         let bit = |b: &[u64], r: usize| b[r / 64] >> (r % 64) & 1 == 1;
         m.ab.iter()
             .enumerate()
@@ -395,19 +390,15 @@ impl ExactMap {
             .collect()
     }
 
-    /// Sets `clear` and `blocked` for `q`'s rays through mask `m` (see the module doc).
-    #[allow(clippy::too_many_arguments)]
+    /// Sets `clear` and `blocked` for the query's rays through its mask (see the module doc).
     fn classify(
         &self,
-        scene: &Scene,
-        q: &ShadowQuery,
-        m: &ExactMask,
-        mp: Option<MapPoint>,
-        origin: Vec3,
+        read: &ExactRead,
         clear: &mut [u64],
         blocked: &mut [u64],
         stats: &mut ExactStats,
     ) -> Split {
+        let ExactRead { q, m, mp, origin, .. } = *read;
         let words = clear.len();
         let mut split = Split::default();
         // Off the map (or behind the light's plane): nothing is decided.
@@ -425,11 +416,11 @@ impl ExactMap {
         }
         // Rays the shafts hold: above the cut under the apex (every one, when the light's
         // corners are).
-        if !covers_light(q.p, origin, q.n_geom, &self.light) {
-            let cover = Cover::new(q.p, origin, q.n_geom, self.light.max_point_error());
+        if !covers_light(&q.point, origin, &self.light) {
+            let cover = Cover::new(&q.point, origin, self.light.max_point_error());
             for (r, [a, b]) in m.ab.iter().enumerate() {
-                let w = self.light.point(*a, *b) - q.p;
-                if !cover.covers(q.n_geom.dot(w), w) {
+                let w = self.light.point(*a, *b) - q.point.p;
+                if !cover.covers(q.point.n_geom.dot(w), w) {
                     clear[r / 64] &= !(1 << (r % 64));
                 }
             }
@@ -438,8 +429,8 @@ impl ExactMap {
         let z_far =
             z_stop.max(Self::depth_at_height(m.mask.h_max, m.mask.depth, p.z)).max(self.bounds.z_clip);
         let (mut far_ok, mut near_ok) = ([0u64; MAX_WORDS], [0u64; MAX_WORDS]);
-        self.shaft_bits(scene, q, m, f32::NEG_INFINITY, z_far, &mut far_ok[..words], stats);
-        self.shaft_bits(scene, q, m, z_cut, f32::INFINITY, &mut near_ok[..words], stats);
+        self.shaft_bits(read, f32::NEG_INFINITY, z_far, &mut far_ok[..words], stats);
+        self.shaft_bits(read, z_cut, f32::INFINITY, &mut near_ok[..words], stats);
         for k in 0..words {
             let mid = clear[k];
             clear[k] = mid & far_ok[k] & near_ok[k];

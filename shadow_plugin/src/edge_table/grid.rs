@@ -6,12 +6,12 @@ use super::params::Blend;
 use crate::depth_map::DepthMap;
 use glam::Vec2;
 use rayon::prelude::*;
-use renderer::VisiblePoint;
+use renderer::ShadingPoint;
 
 /// Depth levels at quantiles of the receivers' log depths: level k at the (k + 1/2) / `gz`
 /// quantile of the points the light reaches; and the deepest such point's depth. With no
 /// such point, every level (and the depth) is twice the map's nearest depth.
-pub(super) fn depth_levels(map: &DepthMap, visible: &[VisiblePoint], gz: u32) -> (Vec<f32>, f32) {
+pub(super) fn depth_levels(map: &DepthMap, visible: &[ShadingPoint], gz: u32) -> (Vec<f32>, f32) {
     // Receivers cluster (a floor facing the light has one depth), and a mask serves a point
     // exactly only at its own depth: the ray footprints of a point at depth z read through a
     // mask built at z0 are off by z0 / z. Measured against levels at the centres of equal
@@ -19,7 +19,7 @@ pub(super) fn depth_levels(map: &DepthMap, visible: &[VisiblePoint], gz: u32) ->
     // Grazed receivers and those outside the map are traced and take no part.
     let mut log_depths: Vec<f32> = visible
         .par_iter()
-        .filter(|v| !map.grazing(v.p, v.n_geom) && map.query_point(v.p, v.n_geom).is_some())
+        .filter(|v| !map.grazing(v) && map.query_point(v).is_some())
         .map(|v| map.frame.light_from_world(v.p).z)
         .filter(|&z| z > map.z_min && z.is_finite())
         .map(f32::ln)

@@ -69,7 +69,7 @@ mod params;
 
 pub use crate::heightfield::Heightfield;
 pub use exact::{ExactMap, ExactMask, ExactStats};
-pub use mask::{Mask, QueryStats};
+pub use mask::{Mask, MaskQuery, QueryStats};
 pub use params::{Blend, EdgeTableParams, GRID_RANGE, MAX_MASKS, PUBLISHED_ONLY, Preset, Reading};
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
@@ -81,7 +81,7 @@ use glam::Vec2;
 use grid::{Layout, MaskGrid};
 use rayon::prelude::*;
 use renderer::util::sampling::{Rng, stream_seed};
-use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery, VisiblePoint};
+use renderer::{LightShadowing, PrepareContext, Scene, ShadingPoint, ShadowError, ShadowQuery};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The plugin: one depth map and a grid of masks per light and frame.
@@ -217,14 +217,14 @@ impl EdgeTable {
 
 /// The height masks march to: what the receivers need after region shrinking, up to its
 /// [`MASK_HEIGHT_QUANTILE`]; the few receivers that need more fall back to traced.
-fn mask_height_cap(map: &DepthMap, visible: &[VisiblePoint]) -> f32 {
+fn mask_height_cap(map: &DepthMap, visible: &[ShadingPoint]) -> f32 {
     let mut needed: Vec<f32> = visible
         .par_iter()
-        .filter(|v| !map.grazing(v.p, v.n_geom))
+        .filter(|v| !map.grazing(v))
         .filter_map(|v| {
             // Points off the map are traced and need no height (with `fit_shadowed` they
             // are most of a wide floor).
-            map.query_point(v.p, v.n_geom)?;
+            map.query_point(v)?;
             let p = map.frame.light_from_world(v.p);
             let mp = map.locate(p)?;
             Some(stop_height(map.stop_depth(mp.pixel, p.z).0, p.z))
@@ -269,7 +269,7 @@ impl EdgeTable {
         // (exactness does not rest on them): every k-th of at most QUANTILE_POINTS suffices,
         // where all of them cost a shaft query each in the fit.
         let stride = ctx.visible.len().div_ceil(exact::QUANTILE_POINTS).max(1);
-        let visible: Vec<VisiblePoint> = ctx.visible.iter().step_by(stride).copied().collect();
+        let visible: Vec<ShadingPoint> = ctx.visible.iter().step_by(stride).copied().collect();
         let (bounds, near) =
             DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &self.params.depth_map);
         let map =
@@ -331,15 +331,8 @@ impl EdgeTable {
                 return self.fallback.trace(scene, q);
             }
             let words = bits::words(mask.samples.len());
-            let stats = mask.query_mirrored(
-                map,
-                [i + shift[0], j + shift[1]],
-                mirror,
-                p.z,
-                h_stop,
-                self.params.heightfield,
-                &mut visible,
-            );
+            let at = MaskQuery { map, base: [i + shift[0], j + shift[1]], mirror, pz: p.z, h_stop };
+            let stats = mask.query_mirrored(&at, self.params.heightfield, &mut visible);
             lookups += stats.lookups;
             early_outs += stats.early_out as u64;
             culled += stats.blocks_culled;
@@ -347,8 +340,7 @@ impl EdgeTable {
                 frame,
                 &mask.samples,
                 mirror.map(|m| if m { -1.0 } else { 1.0 }).into(),
-                q.p,
-                q.n_shading,
+                &q.point,
                 &mut above[..words],
             );
             let (n_visible, n_above) = if all_above {
@@ -374,24 +366,22 @@ impl EdgeTable {
             panic!("prepare() with the exact reading runs before visibility()");
         };
         let c = &self.exact_counters;
-        if !traced_only
-            && let Some(shaft) = renderer::Shaft::new(&map.light, q.p, q.p_error, q.n_geom, map.scene_bound)
-        {
+        if !traced_only && let Some(shaft) = renderer::Shaft::new(&map.light, &q.point, map.scene_bound) {
             c.shafts.fetch_add(1, Ordering::Relaxed);
-            let origin = renderer::geometry::ray_origin::offset_origin(q.p, q.p_error, q.n_geom, q.n_geom);
+            let origin = renderer::geometry::ray_origin::offset_origin(&q.point, q.point.n_geom);
             if scene.shaft_clear(&shaft)
-                && renderer::geometry::shaft::covers_light(q.p, origin, q.n_geom, &map.light)
+                && renderer::geometry::shaft::covers_light(&q.point, origin, &map.light)
             {
                 c.points_shaft_clear.fetch_add(1, Ordering::Relaxed);
                 return 1.0;
             }
         }
-        let located = map.locate(q.p);
+        let located = map.locate(q.point.p);
         let (offset, z) = match located {
             Some(mp) => (mp.offset, mp.z),
             None => {
                 c.points_off_map.fetch_add(1, Ordering::Relaxed);
-                (Vec2::ZERO, map.near.frame.light_from_world(q.p).z.max(0.0))
+                (Vec2::ZERO, map.near.frame.light_from_world(q.point.p).z.max(0.0))
             }
         };
         let mut chosen = [(0usize, [0i32; 2], 0.0f32); 8];
@@ -439,7 +429,7 @@ impl EdgeTable {
     #[doc(hidden)]
     pub fn classify_rays(&self, scene: &Scene, q: &ShadowQuery) -> Option<Vec<([f32; 2], Option<bool>)>> {
         let Some(Prepared::Exact { map, masks, grid }) = &self.state else { return None };
-        let mp = map.locate(q.p)?;
+        let mp = map.locate(q.point.p)?;
         let mut chosen = [(0usize, [0i32; 2], 0.0f32); 8];
         grid.select(mp.offset, mp.z, &mut chosen);
         let m = &masks[grid.mask(chosen[0].0).0 as usize];

@@ -255,7 +255,7 @@ impl LightShadowing for Pcss {
         if z_near >= p.z {
             return self.early_out();
         }
-        let receiver = Receiver::new(map, p, q.n_geom);
+        let receiver = Receiver::new(map, p, q.point.n_geom);
         let mut sample_buf = [Vec2::ZERO; MAX_SAMPLES];
 
         // 1. Blocker search: where the rays to the blocker samples cross depth z_near.
@@ -286,7 +286,7 @@ impl LightShadowing for Pcss {
         samples::stratified(taps, frame.half_size, &mut Rng::new(q.seed));
         let w = bits::words(n);
         let mut above = [0u64; MAX_WORDS];
-        samples::above_horizon(frame, taps, Vec2::ONE, q.p, q.n_shading, &mut above[..w]);
+        samples::above_horizon(frame, taps, Vec2::ONE, &q.point, &mut above[..w]);
         let (mut lit, mut n_above) = (0u32, 0u32);
         for (r, s) in taps.iter().enumerate() {
             if above[r / 64] >> (r % 64) & 1 == 0 {

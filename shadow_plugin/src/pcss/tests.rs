@@ -5,7 +5,7 @@ use crate::depth_map::LightFrame;
 use glam::DVec3;
 use renderer::geometry::ray_origin::point_error;
 use renderer::load::gltf_load::Geometry;
-use renderer::{Camera, RectLight, VisiblePoint};
+use renderer::{Camera, RectLight, ShadingPoint};
 use std::time::Duration;
 
 /// The light's frame is the world's: light at the origin, z into the scene.
@@ -38,7 +38,11 @@ fn pcss(half: Vec2, res: u32, extent: f32, depth: impl Fn(Vec2) -> f32, taps: u3
 
 /// A point facing the light (normal -z, towards the light plane).
 fn query(p: Vec3, seed: u64) -> ShadowQuery {
-    ShadowQuery { p, p_error: point_error(p), n_geom: -Vec3::Z, n_shading: -Vec3::Z, pixel: [0, 0], seed }
+    ShadowQuery {
+        point: ShadingPoint { p, p_error: point_error(p), n_geom: -Vec3::Z, n_shading: -Vec3::Z },
+        pixel: [0, 0],
+        seed,
+    }
 }
 
 fn counter(m: &Pcss, name: &str) -> u64 {
@@ -67,7 +71,11 @@ fn tilted_texel(g: Vec2, pitch: f32) -> f32 {
 fn tilted_query(g: Vec2, seed: u64) -> ShadowQuery {
     let n = TILT.normalize();
     let p = tilted_depth(g) * g.extend(1.0);
-    ShadowQuery { p, p_error: point_error(p), n_geom: n, n_shading: n, pixel: [0, 0], seed }
+    ShadowQuery {
+        point: ShadingPoint { p, p_error: point_error(p), n_geom: n, n_shading: n },
+        pixel: [0, 0],
+        seed,
+    }
 }
 
 /// The tilted receiver under the half-plane occluder x < 0 at depth 1.
@@ -211,10 +219,10 @@ fn pcss_lit_tilted_floor_from_a_built_map_is_exactly_one() {
     let light = RectLight::new(centre, 0.8 * u, 0.8 * v, Vec3::ONE);
     let camera = Camera::look_at(Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, Vec3::Y, 40.0);
     let scene = Scene::build(g, vec![light], camera, DVec3::ZERO, Duration::ZERO);
-    let visible: Vec<VisiblePoint> = (0..40 * 40)
+    let visible: Vec<ShadingPoint> = (0..40 * 40)
         .map(|k| {
             let p = Vec3::new(-1.9 + 3.8 * (k % 40) as f32 / 39.0, 0.0, -1.9 + 3.8 * (k / 40) as f32 / 39.0);
-            VisiblePoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: Vec3::Y }
+            ShadingPoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: Vec3::Y }
         })
         .collect();
     let mut m = Pcss::new(PcssParams::default(), 256);
@@ -233,10 +241,7 @@ fn pcss_lit_tilted_floor_from_a_built_map_is_exactly_one() {
             continue;
         }
         let q = ShadowQuery {
-            p: vp.p,
-            p_error: vp.p_error,
-            n_geom: Vec3::Y,
-            n_shading: Vec3::Y,
+            point: ShadingPoint { p: vp.p, p_error: vp.p_error, n_geom: Vec3::Y, n_shading: Vec3::Y },
             pixel: [0, 0],
             seed: k as u64,
         };
@@ -263,11 +268,11 @@ fn pcss_tilted_receiver_under_a_parallel_edge_matches_the_per_ray_penumbra() {
     for k in 0..=40 {
         let x = -0.3 + 0.6 * k as f32 / 40.0;
         let q = tilted_query(Vec2::new(x, 0.1), k as u64);
-        let exact = (0.5 + q.p.x * z_b / (2.0 * h * (q.p.z - z_b))).clamp(0.0, 1.0);
+        let exact = (0.5 + q.point.p.x * z_b / (2.0 * h * (q.point.p.z - z_b))).clamp(0.0, 1.0);
         let v = m.visibility(&scene, &q);
         assert!((v - exact).abs() <= 0.05, "image x {x}: pcss {v}, analytic {exact}");
         worst = worst.max((v - exact).abs());
-        worst_bare = worst_bare.max((bare_pcss(&m, q.p, q.seed) - exact).abs());
+        worst_bare = worst_bare.max((bare_pcss(&m, q.point.p, q.seed) - exact).abs());
     }
     // Measured: worst error 0.005 (pcss), 0.38 (bare test, lit half of the penumbra).
     assert!(worst <= 0.05 && worst_bare > 0.2, "pcss {worst}, bare {worst_bare}");

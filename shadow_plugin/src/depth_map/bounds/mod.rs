@@ -166,7 +166,6 @@ impl Grid {
 
     /// Rasterizes one triangle (light-frame vertices) into `r`: near, and for opaque ones far
     /// and the opaque flag; a triangle cut by `z_clip` marks its pixels open.
-    #[allow(clippy::too_many_arguments)]
     fn triangle(
         &self,
         id: u32,
@@ -397,7 +396,7 @@ impl DepthBounds {
     pub fn build_for_light(
         scene: &Scene,
         light: &renderer::RectLight,
-        visible: &[renderer::VisiblePoint],
+        visible: &[renderer::ShadingPoint],
         params: &super::DepthMapParams,
     ) -> (DepthBounds, super::DepthMap) {
         let _span = tracing::info_span!("depth_map", resolution = params.resolution).entered();

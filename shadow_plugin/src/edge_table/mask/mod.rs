@@ -8,6 +8,7 @@ mod classify;
 mod query;
 
 pub use classify::ExactQuery;
+pub use query::MaskQuery;
 
 use glam::Vec2;
 

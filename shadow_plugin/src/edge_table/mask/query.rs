@@ -15,6 +15,22 @@ use crate::depth_map::DepthMap;
 use crate::heightfield::Heightfield;
 use crate::march::floor_height;
 
+/// Where one point reads a mask, and how high: the published reading's counterpart of
+/// [`super::ExactQuery`].
+#[derive(Debug, Clone, Copy)]
+pub struct MaskQuery<'a> {
+    pub map: &'a DepthMap,
+    /// The point's pixel: where the mask's own pixel falls.
+    pub base: [i32; 2],
+    /// Per axis, whether the mask is read as its mirror image ([`Mask::query_mirrored`]).
+    pub mirror: [bool; 2],
+    /// The point's depth.
+    pub pz: f32,
+    /// Crossings at or above this normalised height are not looked at (at most
+    /// [`Mask::h_max`]).
+    pub h_stop: f32,
+}
+
 impl Mask {
     /// Unblocked-ray bits for a point at depth `pz` whose mask-relative pixel is `base`,
     /// considering crossings below the normalised height `h_stop` (at most
@@ -29,29 +45,21 @@ impl Mask {
         heightfield: Heightfield,
         out: &mut [u64],
     ) -> QueryStats {
-        self.query_mirrored(map, base, [false; 2], pz, h_stop, heightfield, out)
+        let at = MaskQuery { map, base, mirror: [false; 2], pz, h_stop };
+        self.query_mirrored(&at, heightfield, out)
     }
 
-    /// [`Mask::query`] for the mirror image of this mask: with `mirror[0]`, a point at
-    /// offset (1 - fx, fy) in pixel `base` (the mask's pixel columns reflected, cell dx read
-    /// at `base.x - dx`), whose bit r is the ray to sample r reflected in x (`mirror[1]`
-    /// likewise in y). The crossings are the same numbers: (k - fx) and ((1 - k) - (1 - fx))
-    /// round alike, and a side's s = (k - fx) pz pitch / Lx is unchanged when both signs
-    /// flip.
+    /// [`Mask::query`] for the mirror image of this mask: with `at.mirror[0]`, a point at
+    /// offset (1 - fx, fy) in pixel `at.base` (the mask's pixel columns reflected, cell dx
+    /// read at `base.x - dx`), whose bit r is the ray to sample r reflected in x
+    /// (`mirror[1]` likewise in y). The crossings are the same numbers: (k - fx) and
+    /// ((1 - k) - (1 - fx)) round alike, and a side's s = (k - fx) pz pitch / Lx is unchanged
+    /// when both signs flip.
     ///
     /// A mask built for another reading ([`Mask::build_for`]) must not be read as `shells`:
     /// it has no walls (checked in debug builds).
-    #[allow(clippy::too_many_arguments)]
-    pub fn query_mirrored(
-        &self,
-        map: &DepthMap,
-        base: [i32; 2],
-        mirror: [bool; 2],
-        pz: f32,
-        h_stop: f32,
-        heightfield: Heightfield,
-        out: &mut [u64],
-    ) -> QueryStats {
+    pub fn query_mirrored(&self, at: &MaskQuery, heightfield: Heightfield, out: &mut [u64]) -> QueryStats {
+        let MaskQuery { map, base, mirror, pz, h_stop } = *at;
         // Once per mask query (not in a loop): wrong bits would be silent, a panic is not.
         assert!(
             self.walls || heightfield != Heightfield::Shells,
