@@ -107,17 +107,9 @@ fn main() {
     if scenes.is_empty() {
         scenes.push(PathBuf::from("scenes/default.toml"));
     }
-    let mask_budget_bytes = penumbra::memory::mask_budget_bytes();
-    let settings = RenderSettings {
-        width,
-        height,
-        spp: 1,
-        seed: 0,
-        mask_budget_bytes,
-        profile: false,
-        max_depth: 2,
-        shadow_salt: 0,
-    };
+    let memory_budget_bytes = penumbra::memory::memory_budget_bytes();
+    let settings =
+        RenderSettings { width, height, spp: 1, seed: 0, memory_budget_bytes, profile: false, max_depth: 2 };
     let et = |res: u32, grid: [u32; 3], blend: Blend, heightfield: Heightfield| EdgeTableParams {
         depth_map: DepthMapParams::new(res),
         reading: Reading::Published,

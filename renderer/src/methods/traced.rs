@@ -127,12 +127,15 @@ pub struct Traced {
     /// Shafts tested, and those found clear.
     shafts: AtomicU64,
     shafts_clear: AtomicU64,
+    /// [`LightShadowing::seed_salt`]: 0 but for [`Traced::with_seed_salt`].
+    seed_salt: u64,
 }
 
 impl Traced {
     pub fn new(params: TracedParams) -> Self {
         Self {
             params,
+            seed_salt: 0,
             light: None,
             rays: AtomicU64::new(0),
             occluded: AtomicU64::new(0),
@@ -142,9 +145,22 @@ impl Traced {
     }
 }
 
+impl Traced {
+    /// The same method drawing light samples of its own: `salt` is mixed into its queries'
+    /// seeds ([`LightShadowing::seed_salt`]). The bench's truth along the runs' paths is such
+    /// a `Traced`, so that its error is not read against the runs' own samples.
+    pub fn with_seed_salt(self, salt: u64) -> Self {
+        Self { seed_salt: salt, ..self }
+    }
+}
+
 impl LightShadowing for Traced {
     fn name(&self) -> &'static str {
         "traced"
+    }
+
+    fn seed_salt(&self) -> u64 {
+        self.seed_salt
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
@@ -304,7 +320,7 @@ mod tests {
             light_index: 0,
             visible: &[],
             seed: 0,
-            mask_budget_bytes: u64::MAX,
+            memory_budget_bytes: u64::MAX,
         };
         t.prepare(&ctx).unwrap();
         t

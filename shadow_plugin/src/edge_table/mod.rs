@@ -256,7 +256,7 @@ impl EdgeTable {
             .map(|(&z, &hi)| (z, stop_height(map.z_min, hi).min(h_cap)))
             .collect();
         let layout = Layout::new(self.params.grid, self.params.mirrored);
-        let masks = self.build_masks(ctx, &map, &layout.built, &per_level, ctx.mask_budget_bytes)?;
+        let masks = self.build_masks(ctx, &map, &layout.built, &per_level, ctx.memory_budget_bytes)?;
         let grid = MaskGrid { dims: self.params.grid, blend: self.params.blend, levels, cells: layout.cells };
         Ok(Prepared::Published { map, masks, grid })
     }
@@ -286,7 +286,7 @@ impl EdgeTable {
             })
             .collect();
         let layout = Layout::new(self.params.grid, false);
-        let masks = self.build_masks(ctx, &map.near, &layout.built, &per_level, ctx.mask_budget_bytes)?;
+        let masks = self.build_masks(ctx, &map.near, &layout.built, &per_level, ctx.memory_budget_bytes)?;
         let half = map.near.frame.half_size;
         let masks = masks.into_iter().map(|m| ExactMask::new(m, half)).collect();
         let grid = MaskGrid { dims: self.params.grid, blend: Blend::Nearest, levels, cells: layout.cells };
