@@ -17,7 +17,7 @@
 //! Shadow cost = shadow_prepare + (render time - render time of `none`).
 
 use renderer::{LightShadowing, RenderSettings, Scene, SceneFile, Traced, TracedParams, Unshadowed, render};
-use shadow_plugin::{Blend, DepthMapParams, DepthMarch, EdgeTable, EdgeTableParams, Heightfield, Reading};
+use shadow_plugin::{Blend, DepthMarch, EdgeTable, EdgeTableParams, Heightfield, PublishedParams, Reading};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -107,29 +107,21 @@ fn main() {
     if scenes.is_empty() {
         scenes.push(PathBuf::from("scenes/default.toml"));
     }
-    let mask_budget_bytes = penumbra::memory::mask_budget_bytes();
-    let settings = RenderSettings {
-        width,
-        height,
-        spp: 1,
-        seed: 0,
-        mask_budget_bytes,
-        profile: false,
-        max_depth: 2,
-        shadow_salt: 0,
-    };
+    let memory_budget_bytes = penumbra::memory::memory_budget_bytes();
+    let settings =
+        RenderSettings { width, height, spp: 1, seed: 0, memory_budget_bytes, profile: false, max_depth: 2 };
+    let published =
+        |p: PublishedParams| EdgeTableParams { reading: Reading::Published(p), ..EdgeTableParams::default() };
     let et = |res: u32, grid: [u32; 3], blend: Blend, heightfield: Heightfield| EdgeTableParams {
-        depth_map: DepthMapParams::new(res),
-        reading: Reading::Published,
+        resolution: res,
         grid,
-        blend,
-        heightfield,
-        mirrored: EdgeTableParams::default().mirrored,
+        ..published(PublishedParams { blend, heightfield, ..PublishedParams::DEFAULT })
     };
     // The exact reading (the default), then the published reading's settings around its
     // previous default (what the rows below vary).
     let exact = EdgeTableParams::default();
-    let d = EdgeTableParams { reading: Reading::Published, ..exact };
+    let dp = PublishedParams::DEFAULT;
+    let d = published(dp);
     let mut configs: Vec<(String, EdgeTableParams)> =
         vec![("edge_table default (exact)".to_string(), exact), ("edge_table published".to_string(), d)];
     for &res in &map_sizes {
@@ -137,7 +129,7 @@ fn main() {
             for blend in [Blend::Nearest, Blend::Trilinear] {
                 configs.push((
                     format!("edge_table {res} {}x{}x{} {blend:?}", grid[0], grid[1], grid[2]).to_lowercase(),
-                    et(res, grid, blend, d.heightfield),
+                    et(res, grid, blend, dp.heightfield),
                 ));
             }
         }
@@ -147,41 +139,40 @@ fn main() {
     for grid in [[4, 4, 2], [2, 2, 8]] {
         configs.push((
             format!("edge_table 256 {}x{}x{} nearest", grid[0], grid[1], grid[2]),
-            et(256, grid, Blend::Nearest, d.heightfield),
+            et(256, grid, Blend::Nearest, dp.heightfield),
         ));
     }
     for h in [Heightfield::Solid, Heightfield::Shells, Heightfield::Plates] {
-        if h != d.heightfield {
+        if h != dp.heightfield {
             configs.push((
                 format!("edge_table default {h:?}").to_lowercase(),
-                EdgeTableParams { heightfield: h, ..d },
+                published(PublishedParams { heightfield: h, ..dp }),
             ));
         }
     }
     for slab in [0.0, 4.0] {
-        let mut p = d;
-        p.depth_map.slab_thickness = slab;
-        configs.push((format!("edge_table default slab {slab}"), p));
+        configs.push((
+            format!("edge_table default slab {slab}"),
+            published(PublishedParams { slab_thickness: slab, ..dp }),
+        ));
     }
     let mut open = d;
-    open.depth_map.closed_volumes = false;
+    open.switches.map.closed_volumes = false;
     configs.push(("edge_table default, closed_volumes off".to_string(), open));
-    let mut offset = d;
-    offset.depth_map.normal_offset = 1.0;
+    let offset = published(PublishedParams { normal_offset: 1.0, ..dp });
     configs.push(("edge_table default, normal_offset 1.0".to_string(), offset));
     let mut one_layer = d;
-    one_layer.depth_map.hidden_layer = false;
+    one_layer.switches.map.hidden_layer = false;
     configs.push(("edge_table default, hidden_layer off".to_string(), one_layer));
-    let mut no_grazing = d;
-    no_grazing.depth_map.grazing_cos = 0.0;
+    let no_grazing = published(PublishedParams { grazing_cos: 0.0, ..dp });
     configs.push(("edge_table default, grazing_cos 0 (off)".to_string(), no_grazing));
-    let mut less_grazing = d;
-    less_grazing.depth_map.grazing_cos = 0.2;
+    let less_grazing = published(PublishedParams { grazing_cos: 0.2, ..dp });
     configs.push(("edge_table default, grazing_cos 0.2".to_string(), less_grazing));
     let mut all_lit = d;
-    all_lit.depth_map.fit_shadowed = false;
+    all_lit.switches.map.fit_shadowed = false;
     configs.push(("edge_table default, fit_shadowed off".to_string(), all_lit));
-    let unmirrored = EdgeTableParams { mirrored: false, ..d };
+    let mut unmirrored = d;
+    unmirrored.switches.mirrored = false;
     configs.push(("edge_table default, mirrored off".to_string(), unmirrored));
 
     for path in &scenes {
@@ -213,9 +204,9 @@ fn main() {
             },
         ];
         let march =
-            run(&scene, &|| Box::new(DepthMarch::new(d.depth_map, d.heightfield, samples)), &settings);
+            run(&scene, &|| Box::new(DepthMarch::new(d.depth_map(), dp.heightfield, samples)), &settings);
         rows.push(Row {
-            name: format!("depth_march {} {:?}", d.depth_map.resolution, d.heightfield).to_lowercase(),
+            name: format!("depth_march {} {:?}", d.resolution, dp.heightfield).to_lowercase(),
             cost: cost(&march),
             errors: errors(&truth.visibility[0], &march.visibility[0], lit),
             fallbacks: march.counters.get("fallbacks").copied().unwrap_or(0),

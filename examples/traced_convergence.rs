@@ -53,10 +53,9 @@ fn main() {
         height,
         spp: 1,
         seed,
-        mask_budget_bytes: u64::MAX,
+        memory_budget_bytes: u64::MAX,
         profile: false,
         max_depth: 2,
-        shadow_salt: 0,
     };
     println!("{width}x{height}, 1 spp; reference: traced {REFERENCE} (seed 1), the others seed 0\n");
     println!("| scene | lit px | max abs err 1024 | RMSE 64 | RMSE 256 | RMSE 1024 | slope | seconds |");

@@ -258,16 +258,15 @@ fn render_frame(
     progress: &PhaseProgress,
 ) -> Result<Frame, CliError> {
     let mut methods: Vec<_> = scene.lights.iter().map(|_| plan.shadows.build()).collect();
-    let mask_budget_bytes = memory::mask_budget_bytes();
+    let memory_budget_bytes = memory::memory_budget_bytes();
     let settings = RenderSettings {
         width: plan.width,
         height: plan.height,
         spp: plan.spp,
         seed,
-        mask_budget_bytes,
+        memory_budget_bytes,
         profile,
         max_depth: plan.max_depth,
-        shadow_salt: 0,
     };
     render(scene, &mut methods, &settings, &|p| progress.report(p))
         .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))

@@ -1,12 +1,13 @@
 //! What the machine can spare, read once per run and handed to the shadow methods as plain
-//! data ([`renderer::RenderSettings::mask_budget_bytes`]): the plugins never probe their
+//! data ([`renderer::RenderSettings::memory_budget_bytes`]): the plugins never probe their
 //! environment.
 
-/// Most bytes of masks one light may hold: half the memory available when it is read
-/// (Linux's `MemAvailable`, or the cgroup's headroom under `memory.max` when that is
-/// smaller: a container is killed at its limit, not the machine's), at most 16 GiB; 4 GiB
-/// where neither is known. `PENUMBRA_MASK_BUDGET_MIB` overrides it.
-pub fn mask_budget_bytes() -> u64 {
+/// Most bytes one light's shadow method may hold (`edge_table`'s masks): half the memory
+/// available when it is read (Linux's `MemAvailable`, or the cgroup's headroom under
+/// `memory.max` when that is smaller: a container is killed at its limit, not the
+/// machine's), at most 16 GiB; 4 GiB where neither is known. `PENUMBRA_MASK_BUDGET_MIB`
+/// overrides it.
+pub fn memory_budget_bytes() -> u64 {
     if let Some(mib) = std::env::var("PENUMBRA_MASK_BUDGET_MIB").ok().and_then(|v| v.parse::<u64>().ok()) {
         return mib.saturating_mul(1 << 20);
     }

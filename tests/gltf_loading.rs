@@ -485,7 +485,7 @@ fn floor_visibility(scene: &Scene, points: &[DVec3]) -> Vec<f32> {
             light_index: 0,
             visible: &[],
             seed: 0,
-            mask_budget_bytes: u64::MAX,
+            memory_budget_bytes: u64::MAX,
         })
         .expect("prepare");
     points

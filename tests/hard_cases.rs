@@ -43,7 +43,7 @@
 //! the shadowed receivers) give the values in the bounds' comments below. With the previous
 //! grid, 4 x 4 x 4, every case was within 0.002 RMSE of them and the tiny light identical.
 
-use shadow_plugin::EdgeTableParams;
+use shadow_plugin::{EdgeTableParams, PublishedParams, Reading};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -668,9 +668,11 @@ fn map_fitted_to_the_shadowed_receivers_is_finer_and_exact_elsewhere() {
     };
     let (r, m_fitted) = run_case(&dir, "fitted", &fitted);
     // The whole lit frame fitted: a code-only switch (the scene file cannot turn it off).
-    let mut all_lit =
-        EdgeTableParams { reading: shadow_plugin::Reading::Published, ..EdgeTableParams::default() };
-    all_lit.depth_map.fit_shadowed = false;
+    let mut all_lit = EdgeTableParams {
+        reading: Reading::Published(PublishedParams::DEFAULT),
+        ..EdgeTableParams::default()
+    };
+    all_lit.switches.map.fit_shadowed = false;
     let all_lit = Arc::new(all_lit);
     let edge = Vis(render_visibility_with(
         &dir,

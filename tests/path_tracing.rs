@@ -83,16 +83,7 @@ fn frame(scene: &Scene, settings: &RenderSettings) -> Frame {
 }
 
 fn settings(width: u32, height: u32, spp: u32, max_depth: u32) -> RenderSettings {
-    RenderSettings {
-        width,
-        height,
-        spp,
-        seed: 1,
-        mask_budget_bytes: 1 << 30,
-        profile: false,
-        max_depth,
-        shadow_salt: 0,
-    }
+    RenderSettings { width, height, spp, seed: 1, memory_budget_bytes: 1 << 30, profile: false, max_depth }
 }
 
 /// In a closed sphere of albedo rho every point sees every area element under the same

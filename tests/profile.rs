@@ -154,10 +154,9 @@ fn penumbra_over_lit(method: &str) -> (f64, usize, usize) {
         height: 120,
         spp: 1,
         seed: 0,
-        mask_budget_bytes: 1 << 30,
+        memory_budget_bytes: 1 << 30,
         profile: true,
         max_depth: 2,
-        shadow_salt: 0,
     };
     let frame = renderer::render(&scene, &mut methods, &settings, &|_| {}).unwrap();
     let costs: &[PixelCost] = frame.costs.as_deref().unwrap();

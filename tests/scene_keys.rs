@@ -4,9 +4,11 @@
 
 use penumbra::config::ShadowsConfig;
 use penumbra::methods::METHODS;
-use renderer::{SceneError, TracedParams, parse_method};
-use shadow_plugin::edge_table::PUBLISHED_ONLY;
-use shadow_plugin::{Blend, DepthMarchParams, EdgeTableParams, Heightfield, PcssParams, Reading};
+use renderer::interface::method::default_table;
+use renderer::{MethodParams, SceneError, TracedParams, parse_method};
+use shadow_plugin::{
+    Blend, DepthMarchParams, EdgeTableParams, Heightfield, PcssParams, PublishedParams, Reading,
+};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -20,6 +22,30 @@ fn error_key(text: &str) -> String {
 
 fn table(text: &str) -> toml::Table {
     text.parse().unwrap()
+}
+
+/// The published reading's table (its keys, with their values at the default).
+fn published_table() -> toml::Table {
+    let published =
+        EdgeTableParams { reading: Reading::Published(PublishedParams::DEFAULT), ..Default::default() };
+    toml::Table::try_from(published.table()).unwrap()
+}
+
+/// The keys only the published reading reads: its table's that the default (exact) one's lacks.
+fn published_only() -> Vec<String> {
+    let exact = default_table::<EdgeTableParams>();
+    let keys: Vec<String> =
+        published_table().into_iter().map(|(k, _)| k).filter(|k| !exact.contains_key(k)).collect();
+    assert_eq!(keys.len(), 6, "{keys:?}");
+    keys
+}
+
+/// `c`'s published reading.
+fn published(c: &EdgeTableParams) -> PublishedParams {
+    match c.reading {
+        Reading::Published(p) => p,
+        Reading::Exact => panic!("read exactly: {c:?}"),
+    }
 }
 
 /// docs/scene-keys.md: per `## \`[shadows.NAME]\`` section, each row's key and default.
@@ -55,9 +81,9 @@ fn the_key_reference_lists_every_key_with_its_default() {
         if m.name == "edge_table" {
             // The published reading's keys (inapplicable to the default, exact one) are
             // documented with their values under `reading = "published"`.
-            let published = EdgeTableParams { reading: Reading::Published, ..EdgeTableParams::default() };
-            for (k, v) in toml::Table::try_from(published).unwrap() {
-                if PUBLISHED_ONLY.contains(&k.as_str()) {
+            let only = published_only();
+            for (k, v) in published_table() {
+                if only.contains(&k) {
                     expected.insert(k, v.to_string());
                 }
             }
@@ -136,12 +162,12 @@ fn a_key_that_does_not_apply_to_the_reading_is_an_error() {
         }
     }
     // The exact reading reads none of the published reading's keys.
-    for k in PUBLISHED_ONLY {
+    for k in &published_only() {
         let text = format!(
             "[edge_table]\nreading = \"exact\"\n{k} = {}",
-            if *k == "heightfield" || *k == "blend" { "\"nearest\"" } else { "1.0" }
+            if k == "heightfield" || k == "blend" { "\"nearest\"" } else { "1.0" }
         );
-        let text = if *k == "heightfield" { text.replace("nearest", "plates") } else { text };
+        let text = if k == "heightfield" { text.replace("nearest", "plates") } else { text };
         assert_eq!(error_key(&text), format!("shadows.edge_table.{k}"), "{text}");
     }
     // The paper preset reads shells: its slab key is inapplicable unless the reading changes.
@@ -160,9 +186,9 @@ fn published_keys_without_a_reading_keep_the_published_reading() {
     let p = Path::new("s.toml");
     let parse = |text: &str| parse_method::<EdgeTableParams>(&table(text), p, "shadows.edge_table").unwrap();
     let c = parse("depth_map = 256\ngrid = [4, 4, 1]\nblend = \"trilinear\"");
-    assert_eq!((c.reading, c.blend, c.grid), (Reading::Published, Blend::Trilinear, [4, 4, 1]));
+    assert_eq!((published(&c).blend, c.grid), (Blend::Trilinear, [4, 4, 1]));
     assert_eq!(parse("grid = [4, 4, 1]").reading, Reading::Exact);
-    assert_eq!(parse("reading = \"published\"").reading, Reading::Published);
+    assert_eq!(parse("reading = \"published\"").reading, Reading::Published(PublishedParams::DEFAULT));
     assert_eq!(
         error_key("[edge_table]\nreading = \"exact\"\nblend = \"trilinear\""),
         "shadows.edge_table.blend"
@@ -177,13 +203,17 @@ fn presets_start_the_edge_table_and_keys_override_them() {
     assert_eq!(parse("preset = \"paper\""), EdgeTableParams::paper());
     assert_eq!(parse("preset = \"fine\""), EdgeTableParams::fine());
     let c = parse("preset = \"fine\"\ngrid = [2, 2, 1]");
-    assert_eq!((c.grid, c.blend, c.depth_map.resolution), ([2, 2, 1], Blend::Trilinear, 512));
-    assert!(c.mirrored, "the code-only switch comes from the preset");
+    assert_eq!((c.grid, published(&c).blend, c.resolution), ([2, 2, 1], Blend::Trilinear, 512));
+    assert!(c.switches.mirrored, "the code-only switch comes from the preset");
     let c = parse("preset = \"paper\"\nheightfield = \"solid\"\ndepth_map = 128");
-    assert_eq!((c.heightfield, c.depth_map.resolution, c.mirrored), (Heightfield::Solid, 128, false));
-    assert!(c.depth_map.closed_volumes && c.depth_map.hidden_layer && c.depth_map.fit_shadowed);
+    assert_eq!(
+        (published(&c).heightfield, c.resolution, c.switches.mirrored),
+        (Heightfield::Solid, 128, false)
+    );
+    let map = c.switches.map;
+    assert!(map.closed_volumes && map.hidden_layer && map.fit_shadowed);
     let d = parse_method::<DepthMarchParams>(&table("heightfield = \"shells\""), p, "x").unwrap();
-    assert_eq!((d.heightfield, d.depth_map), (Heightfield::Shells, EdgeTableParams::default().depth_map));
+    assert_eq!((d.heightfield, d.depth_map), (Heightfield::Shells, EdgeTableParams::default().depth_map()));
     let c = parse_method::<PcssParams>(&table("depth_map = 512\nblocker_samples = 64"), p, "x").unwrap();
     assert_eq!((c.depth_map.resolution, c.blocker_samples), (512, 64));
     assert_eq!(c.depth_map.slope_bias, PcssParams::default().depth_map.slope_bias);
@@ -200,7 +230,7 @@ fn an_empty_table_gives_each_method_its_defaults() {
     let pcss = parse_method::<PcssParams>(&empty, p, "x").unwrap();
     assert_eq!(pcss, PcssParams::default());
     // The real-time baseline: no grazing policy, no fit to the shadowed receivers.
-    assert_eq!((pcss.depth_map.grazing_cos, pcss.depth_map.fit_shadowed), (0.0, false));
+    assert_eq!((pcss.depth_map.grazing_cos, pcss.depth_map.switches.fit_shadowed), (0.0, false));
 }
 
 #[test]

@@ -29,10 +29,9 @@ fn visibility(scene: &Scene) -> Vec<f32> {
         height: 120,
         spp: 1,
         seed: 7,
-        mask_budget_bytes: 1 << 30,
+        memory_budget_bytes: 1 << 30,
         profile: false,
         max_depth: 2,
-        shadow_salt: 0,
     };
     let frame = render(scene, &mut methods, &settings, &|_| {}).unwrap();
     frame.visibility[0].clone()
@@ -99,10 +98,9 @@ fn far_geometry_is_counted_and_warned_about_with_its_precision() {
         height: 24,
         spp: 1,
         seed: 0,
-        mask_budget_bytes: 1 << 30,
+        memory_budget_bytes: 1 << 30,
         profile: false,
         max_depth: 2,
-        shadow_salt: 0,
     };
     let frame = render(&mid, &mut methods, &settings, &|_| {}).unwrap();
     let line = frame.warnings.iter().find(|w| w.starts_with("the visible part")).expect("a precision line");

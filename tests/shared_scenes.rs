@@ -89,10 +89,9 @@ fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
         height: 48,
         spp: 1,
         seed: 3,
-        mask_budget_bytes: u64::MAX,
+        memory_budget_bytes: u64::MAX,
         profile: false,
         max_depth: 2,
-        shadow_salt: 0,
     };
     for path in names {
         let file = SceneFile::load(&path).unwrap();

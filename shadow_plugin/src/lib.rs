@@ -12,8 +12,10 @@ pub mod march;
 pub mod pcss;
 pub mod samples;
 
-pub use depth_map::{DepthMap, DepthMapParams, LightFrame};
+pub use depth_map::{DepthMap, DepthMapParams, LightFrame, MapSwitches};
 pub use depth_march::{DepthMarch, DepthMarchParams};
-pub use edge_table::{Blend, EdgeTable, EdgeTableParams, Mask, Preset, Reading};
+pub use edge_table::{
+    Blend, EdgeTable, EdgeTableParams, EdgeTableSwitches, Mask, Preset, PublishedParams, Reading,
+};
 pub use heightfield::Heightfield;
 pub use pcss::{Pcss, PcssParams};

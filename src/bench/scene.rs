@@ -108,16 +108,15 @@ pub(super) fn bench_scene(
     let (args, out) = (plan.args, plan.out);
     let scene = Scene::load(file, path)?;
     let (width, height) = bench_size(args, file.image.width, file.image.height);
-    let mask_budget_bytes = crate::memory::mask_budget_bytes();
+    let memory_budget_bytes = crate::memory::memory_budget_bytes();
     let settings = RenderSettings {
         width,
         height,
         spp: 1,
         seed: args.seed,
-        mask_budget_bytes,
+        memory_budget_bytes,
         profile: false,
         max_depth: args.max_depth,
-        shadow_salt: 0,
     };
     let scene_dir = out.join(stem);
     std::fs::create_dir_all(&scene_dir)

@@ -2,7 +2,7 @@
 //! order that `--max-run-seconds` skips by ([`cost_order`], [`no_costlier`]).
 
 use renderer::{ShadowMethod, TracedParams, Unshadowed};
-use shadow_plugin::{Blend, DepthMarchParams, EdgeTableParams, PcssParams, Reading};
+use shadow_plugin::{Blend, DepthMarchParams, EdgeTableParams, PcssParams, PublishedParams, Reading};
 use std::sync::Arc;
 
 /// The `edge_table` parameters that only make a run costlier as they grow: (depth map,
@@ -68,7 +68,10 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
     out.push(edge_table(format!("edge_table exact N={n}"), EdgeTableParams::default(), n));
     // The published (approximate) reading: its previous default's grid, and in the full
     // sweep a finer map and grids, nearest and trilinear.
-    let published = EdgeTableParams { reading: Reading::Published, ..EdgeTableParams::default() };
+    let published = EdgeTableParams {
+        reading: Reading::Published(PublishedParams::DEFAULT),
+        ..EdgeTableParams::default()
+    };
     let maps: &[u32] = if quick { &[256] } else { &[256, 512] };
     let mut grids = vec![published.grid];
     if !quick {
@@ -82,8 +85,8 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
     for &map in maps {
         for &grid in &grids {
             for (blend, blend_name) in [(Blend::Nearest, "nearest"), (Blend::Trilinear, "trilinear")] {
-                let mut p = EdgeTableParams { grid, blend, ..published };
-                p.depth_map.resolution = map;
+                let reading = Reading::Published(PublishedParams { blend, ..PublishedParams::DEFAULT });
+                let p = EdgeTableParams { resolution: map, grid, reading, ..published };
                 let label = format!("edge_table published {map} {} {blend_name} N={n}", grid_name(grid));
                 out.push(edge_table(label, p, n));
             }
@@ -98,12 +101,12 @@ pub fn sweep(quick: bool) -> Vec<Setting> {
 
 fn cost_order(p: &EdgeTableParams, samples: u32) -> CostOrder {
     // The exact reading has no blend; it sorts before the published one's nearest.
-    let blend = match (p.reading, p.blend) {
-        (Reading::Exact, _) => 0,
-        (Reading::Published, Blend::Nearest) => 1,
-        (Reading::Published, Blend::Trilinear) => 2,
+    let blend = match p.reading {
+        Reading::Exact => 0,
+        Reading::Published(PublishedParams { blend: Blend::Nearest, .. }) => 1,
+        Reading::Published(PublishedParams { blend: Blend::Trilinear, .. }) => 2,
     };
-    (p.depth_map.resolution, p.grid, blend, samples)
+    (p.resolution, p.grid, blend, samples)
 }
 
 /// Whether `a` is at most `b` in every cost parameter.
@@ -139,9 +142,8 @@ mod tests {
     #[test]
     fn costlier_edge_table_settings_are_the_ones_skipped() {
         let et = |map: u32, grid: [u32; 3], blend: Blend, samples: u32| {
-            let mut p =
-                EdgeTableParams { grid, blend, reading: Reading::Published, ..EdgeTableParams::default() };
-            p.depth_map.resolution = map;
+            let reading = Reading::Published(PublishedParams { blend, ..PublishedParams::DEFAULT });
+            let p = EdgeTableParams { resolution: map, grid, reading, ..EdgeTableParams::default() };
             edge_table(String::new(), p, samples).cost.unwrap()
         };
         let slow = et(256, [4, 4, 2], Blend::Trilinear, 1024);

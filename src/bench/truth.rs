@@ -180,14 +180,16 @@ pub fn truth(
 
     // Light samples of its own, never the runs' (their error would read too low). Direct
     // light: its own seed. Paths: the runs' seed, so that the truth follows the very same
-    // paths (the bounces do not depend on the shadow method), and its own shadow salt.
-    let truth_settings = if settings.max_depth > 2 {
-        RenderSettings { shadow_salt: settings.shadow_salt ^ TRUTH_SEED_SALT, ..*settings }
+    // paths (the bounces do not depend on the shadow method), and a salt of its own in its
+    // shadow queries' seeds.
+    let (truth_settings, salt) = if settings.max_depth > 2 {
+        (*settings, TRUTH_SEED_SALT)
     } else {
-        RenderSettings { seed: settings.seed ^ TRUTH_SEED_SALT, ..*settings }
+        (RenderSettings { seed: settings.seed ^ TRUTH_SEED_SALT, ..*settings }, 0)
     };
-    let mut methods: Vec<Box<dyn renderer::LightShadowing>> =
-        (0..lights).map(|_| Box::new(Traced::new(TracedParams::plain(samples))) as _).collect();
+    let mut methods: Vec<Box<dyn renderer::LightShadowing>> = (0..lights)
+        .map(|_| Box::new(Traced::new(TracedParams::plain(samples)).with_seed_salt(salt)) as _)
+        .collect();
     let frame: Frame = render(scene, &mut methods, &truth_settings, &|_| {})
         .map_err(|e| SceneError::new(scene_path, "bench", e.to_string()))?;
     let seconds = (frame.shadow_prepare + frame.render).as_secs_f64();

@@ -436,7 +436,7 @@ mod traced_tests {
             light_index: 0,
             visible: &[],
             seed: 0,
-            mask_budget_bytes: u64::MAX,
+            memory_budget_bytes: u64::MAX,
         };
         let mut t = Traced::new(params);
         t.prepare(&ctx).unwrap();

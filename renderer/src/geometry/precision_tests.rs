@@ -89,7 +89,7 @@ fn prepared(scene: &Scene, params: TracedParams) -> Traced {
         light_index: 0,
         visible: &[],
         seed: 0,
-        mask_budget_bytes: u64::MAX,
+        memory_budget_bytes: u64::MAX,
     };
     t.prepare(&ctx).unwrap();
     t

@@ -170,7 +170,7 @@ fn plain_and_culled(s: &Scene) -> (Traced, Traced) {
         light_index: 0,
         visible: &[],
         seed: 0,
-        mask_budget_bytes: u64::MAX,
+        memory_budget_bytes: u64::MAX,
     };
     let mut plain = Traced::new(TracedParams::plain(1024));
     let mut culled = Traced::new(TracedParams { samples: 1024, shaft_culling: true });

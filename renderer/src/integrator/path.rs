@@ -41,15 +41,15 @@ pub struct PathId {
     pub pixel_index: u64,
     pub sample: u64,
     pub seed: u64,
-    /// XORed into the seed of the shadow queries only ([`crate::RenderSettings::shadow_salt`]).
-    pub shadow_salt: u64,
 }
 
 impl PathId {
     /// The seed of light `k`'s shadow query at vertex `vertex` (1 = the primary hit, whose
-    /// seeds are those of the direct-light renderer).
-    pub fn shadow_seed(&self, k: usize, vertex: u32) -> u64 {
-        let base = [self.seed ^ self.shadow_salt, self.pixel_index, self.sample, k as u64, TAG_SHADOW];
+    /// seeds are those of the direct-light renderer), for a method whose
+    /// [`LightShadowing::seed_salt`] is `salt` (XORed into the frame's seed: the same paths,
+    /// other light samples).
+    pub fn shadow_seed(&self, k: usize, vertex: u32, salt: u64) -> u64 {
+        let base = [self.seed ^ salt, self.pixel_index, self.sample, k as u64, TAG_SHADOW];
         if vertex == 1 {
             stream_seed(&base)
         } else {
@@ -113,7 +113,8 @@ pub fn shadow_query(
     stats: &mut [VertexQueries],
 ) -> f32 {
     let method = ctx.methods[k].as_ref();
-    let q = ShadowQuery { point: *point, pixel: id.pixel, seed: id.shadow_seed(k, vertex) };
+    let q =
+        ShadowQuery { point: *point, pixel: id.pixel, seed: id.shadow_seed(k, vertex, method.seed_salt()) };
     let (t0, w0) = (ctx.profile.then(Instant::now), Work::now());
     let v = method.visibility(ctx.scene, &q);
     debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", method.name());
@@ -212,9 +213,9 @@ mod tests {
 
     #[test]
     fn primary_shadow_seeds_are_the_direct_renderers() {
-        let id = PathId { pixel: [3, 4], pixel_index: 99, sample: 2, seed: 7, shadow_salt: 0 };
-        assert_eq!(id.shadow_seed(1, 1), stream_seed(&[7, 99, 2, 1, TAG_SHADOW]));
-        assert_ne!(id.shadow_seed(1, 2), id.shadow_seed(1, 1));
-        assert_ne!(id.shadow_seed(1, 2), id.shadow_seed(1, 3));
+        let id = PathId { pixel: [3, 4], pixel_index: 99, sample: 2, seed: 7 };
+        assert_eq!(id.shadow_seed(1, 1, 0), stream_seed(&[7, 99, 2, 1, TAG_SHADOW]));
+        assert_ne!(id.shadow_seed(1, 2, 0), id.shadow_seed(1, 1, 0));
+        assert_ne!(id.shadow_seed(1, 2, 0), id.shadow_seed(1, 3, 0));
     }
 }

@@ -22,17 +22,14 @@ pub struct RenderSettings {
     /// 1 = one ray through each pixel centre; more = jittered stratified samples, box filter.
     pub spp: u32,
     pub seed: u64,
-    /// Handed to every method's `prepare` ([`PrepareContext::mask_budget_bytes`]): the most
-    /// bytes of masks one light may hold. The command line reads it from the machine.
-    pub mask_budget_bytes: u64,
+    /// Handed to every method's `prepare` ([`PrepareContext::memory_budget_bytes`]): the
+    /// most bytes one light's method may hold. The command line reads it from the machine.
+    pub memory_budget_bytes: u64,
     /// Measure each pixel's shading time and work ([`Frame::costs`]).
     pub profile: bool,
     /// Longest path, counted as Mitsuba 3 counts it ([`crate::integrator::path`]): 2 = direct light
     /// only, 5 = three indirect bounces.
     pub max_depth: u32,
-    /// XORed into the seeds of the shadow queries only (0 normally): a render with another
-    /// salt traces the same paths with other light samples (the bench's truth).
-    pub shadow_salt: u64,
 }
 
 /// What [`render`] reports as it goes, for a progress display.
@@ -258,8 +255,7 @@ fn first_bounces(scene: &Scene, hits: &[Option<SurfaceHit>], settings: &RenderSe
                 .filter_map(|x| {
                     let hit = row[x * spp].as_ref()?;
                     let pixel_index = (y * w + x) as u64;
-                    let id =
-                        PathId { pixel: [x as u32, y as u32], pixel_index, sample: 0, seed, shadow_salt: 0 };
+                    let id = PathId { pixel: [x as u32, y as u32], pixel_index, sample: 0, seed };
                     let next = crate::integrator::path::bounce(scene, &hit.point, &mut id.bounce_rng())?;
                     Some(next.point)
                 })
@@ -286,7 +282,7 @@ fn prepare_lights(
     visible: &[ShadingPoint],
     settings: &RenderSettings,
 ) -> Result<(), ShadowError> {
-    let RenderSettings { seed, mask_budget_bytes, .. } = *settings;
+    let RenderSettings { seed, memory_budget_bytes, .. } = *settings;
     // The budget was read before the frame began: what the primary hits and the lights
     // prepared so far hold is no longer free.
     let mut held = std::mem::size_of_val(visible) as u64;
@@ -297,7 +293,7 @@ fn prepare_lights(
             light_index: k,
             visible,
             seed,
-            mask_budget_bytes: mask_budget_bytes.saturating_sub(held),
+            memory_budget_bytes: memory_budget_bytes.saturating_sub(held),
         };
         tracing::info_span!("prepare", light = k, method = method.name())
             .in_scope(|| method.prepare(&ctx))?;
@@ -409,7 +405,7 @@ fn shade_pixel(
     vis_px: &mut [f32],
     tally: &mut Tally,
 ) -> Vec3 {
-    let RenderSettings { width, spp, seed, profile, max_depth, shadow_salt, .. } = *settings;
+    let RenderSettings { width, spp, seed, profile, max_depth, .. } = *settings;
     let (w, spp_us) = (width as usize, spp as usize);
     let pixel_index = (y * w + x) as u64;
     let ctx = PathContext { scene, methods, max_depth, profile };
@@ -423,7 +419,7 @@ fn shade_pixel(
         hit_count += 1;
         tally.points += 1;
         let albedo = scene.albedo(hit);
-        let id = PathId { pixel: [x as u32, y as u32], pixel_index, sample: s as u64, seed, shadow_salt };
+        let id = PathId { pixel: [x as u32, y as u32], pixel_index, sample: s as u64, seed };
         for (k, light) in scene.lights.iter().enumerate() {
             let e = light.irradiance_factor(hit.point.p, hit.point.n_shading);
             if e <= 0.0 {

@@ -1,11 +1,13 @@
 //! How a shadow method is configured. Each method's parameters are one struct in the
-//! plugin's own file: it *is* the scene file's `[shadows.<name>]` table (serde, unknown keys
-//! rejected, defaults and presets in the plugin), it checks itself ([`MethodParams::validate`])
-//! and it builds the plugin ([`ShadowMethod::build`]). The composition root (the CLI) only
-//! keeps a registry of names to [`parse_method`].
+//! plugin's own file, with its scene-file table ([`MethodParams::Table`], the keys of
+//! `[shadows.<name>]` as serde reads them) beside it; defaults and presets are the plugin's.
+//! The parameters check themselves ([`MethodParams::validate`]) and build the plugin
+//! ([`ShadowMethod::build`]). The composition root (the CLI) only keeps a registry of names
+//! to [`parse_method`].
 //!
 //! Code-only switches (ablations the bench measures, such as `traced`'s shaft culling) are
-//! fields serde skips: the scene file cannot set them, tests and the bench can.
+//! in the parameters, not in the table: the scene file cannot set them (they are unknown
+//! keys there), a table laid over a preset keeps the preset's, tests and the bench set them.
 
 use crate::interface::shadowing::LightShadowing;
 use crate::util::error::SceneError;
@@ -37,13 +39,24 @@ impl KeyError {
     }
 }
 
-/// A method's parameter struct as the scene file reads it.
-pub trait MethodParams: ShadowMethod + Serialize + DeserializeOwned + Default + Clone + 'static {
+/// The table of a method that takes no keys (`[shadows.traced]`, `[shadows.none]`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+pub struct NoKeys {}
+
+/// A method's parameters as the scene file reads them: [`MethodParams::Table`] is the
+/// `[shadows.<name>]` table, the rest of `Self` the code-only switches.
+pub trait MethodParams: ShadowMethod + Default + Clone + 'static {
     /// The method's name (see [`ShadowMethod::name`]).
     const NAME: &'static str;
 
     /// Keys that choose [`MethodParams::base`] (a preset) rather than set a field.
     const CHOICE_KEYS: &'static [&'static str] = &[];
+
+    /// The method's `[shadows.<name>]` table, one field per key: flat (no `serde(flatten)`,
+    /// so that every bad value's error names its key) and without `deny_unknown_fields`
+    /// ([`parse_method`] names unknown keys itself). Serialised, it holds the keys one
+    /// configuration reads: a key it leaves out has no effect there.
+    type Table: Serialize + DeserializeOwned;
 
     /// The values the table's keys override: the default, or the preset the table names.
     fn base(table: &toml::Table) -> Result<Self, KeyError> {
@@ -51,56 +64,69 @@ pub trait MethodParams: ShadowMethod + Serialize + DeserializeOwned + Default + 
         Ok(Self::default())
     }
 
+    /// The keys this configuration reads, with their values.
+    fn table(&self) -> Self::Table;
+
+    /// This configuration with `table`'s values in place of its own; the code-only switches
+    /// stay `self`'s.
+    fn with_table(&self, table: Self::Table) -> Self;
+
     /// Why `key`, given in the table, has no effect with the other choices made (it is an
-    /// error), or `None` when it does.
+    /// error), or `None` when it does. A key [`MethodParams::table`] leaves out is always an
+    /// error; this gives its reason.
     fn inapplicable(&self, key: &str) -> Option<String> {
         let _ = key;
         None
     }
-
-    /// Copies the fields the scene file cannot set (serde skips them) from `base`. Required:
-    /// a skipped field left out here would silently take its type's default, not the preset's.
-    fn keep_code_only(&mut self, base: &Self);
 
     /// Checks what the types cannot (ranges, limits across keys).
     fn validate(&self) -> Result<(), KeyError>;
 }
 
 /// `table` (the method's `[shadows.<name>]`, `prefix` naming it in errors) typed as `M`: its
-/// keys laid over [`MethodParams::base`], then checked. Every error names `file` and the key.
+/// keys laid over [`MethodParams::base`], then checked. Every error names `file` and the key:
+/// a bad value (serde's message, at the key its path gives), then an unknown key, a key that
+/// has no effect, a value out of range.
 pub fn parse_method<M: MethodParams>(
     table: &toml::Table,
     file: &Path,
     prefix: &str,
 ) -> Result<M, SceneError> {
-    let key_error = |e: KeyError| SceneError::new(file, format!("{prefix}.{}", e.key), e.message);
-    let base = M::base(table).map_err(key_error)?;
+    let key_error = |key: &str, message: String| SceneError::new(file, format!("{prefix}.{key}"), message);
+    let base = M::base(table).map_err(|e| key_error(e.key, e.message))?;
     let mut fields = table.clone();
     fields.retain(|k, _| !M::CHOICE_KEYS.contains(&k));
-    let mut params: M = settings_over(&base, &fields, file, prefix).map_err(|e| {
-        if !e.message.starts_with("unknown field")
-            || e.message.contains("expected")
-            || e.message.contains("no fields")
-        {
-            return e;
-        }
-        // Flattened structs do not list what they expect: the base's keys are the table's.
-        let mut keys: Vec<String> = base_table(&base)
-            .into_iter()
-            .map(|(k, _)| k)
-            .filter(|k| base.inapplicable(k).is_none())
-            .collect();
-        keys.extend(M::CHOICE_KEYS.iter().map(|k| k.to_string()));
-        keys.sort();
-        let keys: Vec<String> = keys.iter().map(|k| format!("`{k}`")).collect();
-        SceneError { message: format!("{}, expected one of {}", e.message, keys.join(", ")), ..e }
-    })?;
-    params.keep_code_only(&base);
-    if let Some((key, why)) = fields.keys().find_map(|k| Some((k, params.inapplicable(k)?))) {
-        return Err(SceneError::new(file, format!("{prefix}.{key}"), why));
+    let values: M::Table = settings_over(&base.table(), &fields, file, prefix)?;
+    let known = crate::util::keys::struct_fields::<M::Table>();
+    if let Some(key) = fields.keys().find(|k| !known.contains(&k.as_str())) {
+        return Err(key_error(key, unknown_key_message(key, &base)));
     }
-    params.validate().map_err(key_error)?;
+    let params = base.with_table(values);
+    let read = table_of(&params);
+    let why_not = |k: &str| {
+        params
+            .inapplicable(k)
+            .or_else(|| (!read.contains_key(k)).then(|| "has no effect with the table's other keys".into()))
+    };
+    if let Some((key, why)) = fields.keys().find_map(|k| Some((k, why_not(k)?))) {
+        return Err(key_error(key, why));
+    }
+    params.validate().map_err(|e| key_error(e.key, e.message))?;
     Ok(params)
+}
+
+/// serde's words for an unknown field, with the keys `base` reads (and the choice keys) as
+/// the ones expected.
+fn unknown_key_message<M: MethodParams>(key: &str, base: &M) -> String {
+    let mut keys: Vec<String> = table_of(base).into_iter().map(|(k, _)| k).collect();
+    keys.retain(|k| base.inapplicable(k).is_none());
+    keys.extend(M::CHOICE_KEYS.iter().map(|k| k.to_string()));
+    keys.sort();
+    if keys.is_empty() {
+        return format!("unknown field `{key}`, there are no fields");
+    }
+    let keys: Vec<String> = keys.iter().map(|k| format!("`{k}`")).collect();
+    format!("unknown field `{key}`, expected one of {}", keys.join(", "))
 }
 
 /// [`parse_method`], boxed: the registry's constructor.
@@ -116,46 +142,37 @@ pub fn parse_boxed<M: MethodParams>(
 /// aside): what the key reference (docs/scene-keys.md) lists.
 pub fn default_table<M: MethodParams>() -> toml::Table {
     let params = M::default();
-    let mut table = base_table(&params);
+    let mut table = table_of(&params);
     table.retain(|k, _| params.inapplicable(k).is_none());
     table
 }
 
-/// `T` from `base`'s values with `table`'s keys in their place. Unknown keys and bad values
-/// are errors naming `prefix.key`.
+/// Whether `params` reads `key`: its table ([`MethodParams::table`]) has it.
+pub fn reads<M: MethodParams>(params: &M, key: &str) -> bool {
+    table_of(params).contains_key(key)
+}
+
+/// `T` from `base`'s values with `table`'s keys in their place. Bad values are errors naming
+/// `prefix.key` (the path serde reports: `T` must be flat, see [`MethodParams::Table`]).
 pub fn settings_over<T: Serialize + DeserializeOwned>(
     base: &T,
     table: &toml::Table,
     file: &Path,
     prefix: &str,
 ) -> Result<T, SceneError> {
-    let mut merged = base_table(base);
+    let mut merged = as_table(base);
     merged.extend(table.iter().map(|(k, v)| (k.clone(), v.clone())));
-    let e = match crate::util::keys::deserialize_value::<T>(toml::Value::Table(merged), file, prefix) {
-        Ok(params) => return Ok(params),
-        Err(e) => e,
-    };
-    if e.key != prefix {
-        return Err(e);
-    }
-    // A flattened struct's type errors carry no path: find the key by laying the table's
-    // keys over the base one at a time (only on this error path).
-    for (k, v) in table {
-        let mut one = base_table(base);
-        one.insert(k.clone(), v.clone());
-        if let Err(mut e) = crate::util::keys::deserialize_value::<T>(toml::Value::Table(one), file, prefix) {
-            if e.key == prefix {
-                e.key = format!("{prefix}.{k}");
-            }
-            return Err(e);
-        }
-    }
-    Err(e)
+    crate::util::keys::deserialize_value::<T>(toml::Value::Table(merged), file, prefix)
 }
 
-fn base_table<T: Serialize>(base: &T) -> toml::Table {
-    match toml::Value::try_from(base).expect("method parameters serialise") {
+/// `params`' table as TOML: the keys it reads, with their values.
+fn table_of<M: MethodParams>(params: &M) -> toml::Table {
+    as_table(&params.table())
+}
+
+fn as_table<T: Serialize>(value: &T) -> toml::Table {
+    match toml::Value::try_from(value).expect("method tables serialise") {
         toml::Value::Table(t) => t,
-        _ => panic!("method parameters serialise to a table"),
+        _ => panic!("method tables serialise to a table"),
     }
 }

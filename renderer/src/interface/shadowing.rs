@@ -22,9 +22,9 @@ pub struct PrepareContext<'a> {
     /// The frame's seed.
     pub seed: u64,
     /// Most bytes a method may hold for this light (`edge_table`'s masks), from
-    /// [`crate::RenderSettings::mask_budget_bytes`]: given as data, so that methods never
+    /// [`crate::RenderSettings::memory_budget_bytes`]: given as data, so that methods never
     /// probe their environment.
-    pub mask_budget_bytes: u64,
+    pub memory_budget_bytes: u64,
 }
 
 /// One visibility question: the fraction of the light (its part above the tangent plane of
@@ -60,6 +60,13 @@ pub trait LightShadowing: Send + Sync {
     /// Visibility in [0, 1] of the prepared light from `q`. Called only where the light's
     /// unshadowed irradiance at `q` is non-zero. Must not allocate.
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32;
+
+    /// XORed into the frame's seed where this method's query seeds are derived
+    /// ([`ShadowQuery::seed`]; 0, the frame's own streams, unless a method asks for light
+    /// samples independent of every other method's along the same paths).
+    fn seed_salt(&self) -> u64 {
+        0
+    }
 
     /// Counters for the run report (name, value), summed over lights by the renderer.
     fn counters(&self) -> Vec<(&'static str, u64)> {

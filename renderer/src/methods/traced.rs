@@ -6,16 +6,14 @@ use crate::geometry::light_sampling::HorizonPart;
 use crate::geometry::ray_origin::offset_origin;
 use crate::geometry::scene::Scene;
 use crate::geometry::shaft;
-use crate::interface::method::{KeyError, MethodParams, ShadowMethod};
+use crate::interface::method::{KeyError, MethodParams, NoKeys, ShadowMethod};
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
 use crate::util::sampling::{Rng, strata};
-use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// No shadows: V = 1 everywhere. The cost floor every method's shadow cost is measured
 /// against. `[shadows.none]` takes no keys.
-#[derive(Debug, Default, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
 pub struct Unshadowed {}
 
 impl Unshadowed {
@@ -36,7 +34,13 @@ impl ShadowMethod for Unshadowed {
 
 impl MethodParams for Unshadowed {
     const NAME: &'static str = Self::NAME;
-    fn keep_code_only(&mut self, _: &Self) {}
+    type Table = NoKeys;
+    fn table(&self) -> NoKeys {
+        NoKeys {}
+    }
+    fn with_table(&self, _: NoKeys) -> Self {
+        *self
+    }
     fn validate(&self) -> Result<(), KeyError> {
         Ok(())
     }
@@ -57,19 +61,17 @@ impl LightShadowing for Unshadowed {
 /// Most light samples per shading point `traced` takes.
 pub const MAX_TRACED_SAMPLES: u32 = 65536;
 
-/// Parameters of the traced method. `[shadows.traced]` takes no keys: the sample count is
-/// `[shadows].samples`, and shaft culling is a code-only switch (the same bits either way).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// Parameters of the traced method. `[shadows.traced]` takes no keys ([`NoKeys`]): the sample
+/// count is `[shadows].samples`, and shaft culling is a code-only switch (the same bits
+/// either way).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TracedParams {
     /// Light samples per shading point: a stratified nx x ny grid (nx * ny = samples,
     /// see [`strata`]), jittered per point. 1024 matches the edge-table masks.
-    #[serde(skip)]
     pub samples: u32,
     /// Test each point's shaft to the light first ([`crate::geometry::shaft`]): where no triangle can
     /// meet it, the rays it covers are counted unblocked without being traced. The same bits
     /// either way; only the cost differs (the bench's `traced plain` turns it off).
-    #[serde(skip)]
     pub shaft_culling: bool,
 }
 
@@ -107,8 +109,12 @@ impl ShadowMethod for TracedParams {
 
 impl MethodParams for TracedParams {
     const NAME: &'static str = Self::NAME;
-    fn keep_code_only(&mut self, base: &Self) {
-        *self = *base;
+    type Table = NoKeys;
+    fn table(&self) -> NoKeys {
+        NoKeys {}
+    }
+    fn with_table(&self, _: NoKeys) -> Self {
+        *self
     }
     fn validate(&self) -> Result<(), KeyError> {
         Ok(())
@@ -127,12 +133,15 @@ pub struct Traced {
     /// Shafts tested, and those found clear.
     shafts: AtomicU64,
     shafts_clear: AtomicU64,
+    /// [`LightShadowing::seed_salt`]: 0 but for [`Traced::with_seed_salt`].
+    seed_salt: u64,
 }
 
 impl Traced {
     pub fn new(params: TracedParams) -> Self {
         Self {
             params,
+            seed_salt: 0,
             light: None,
             rays: AtomicU64::new(0),
             occluded: AtomicU64::new(0),
@@ -142,9 +151,22 @@ impl Traced {
     }
 }
 
+impl Traced {
+    /// The same method drawing light samples of its own: `salt` is mixed into its queries'
+    /// seeds ([`LightShadowing::seed_salt`]). The bench's truth along the runs' paths is such
+    /// a `Traced`, so that its error is not read against the runs' own samples.
+    pub fn with_seed_salt(self, salt: u64) -> Self {
+        Self { seed_salt: salt, ..self }
+    }
+}
+
 impl LightShadowing for Traced {
     fn name(&self) -> &'static str {
         "traced"
+    }
+
+    fn seed_salt(&self) -> u64 {
+        self.seed_salt
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
@@ -301,7 +323,7 @@ mod tests {
             light_index: 0,
             visible: &[],
             seed: 0,
-            mask_budget_bytes: u64::MAX,
+            memory_budget_bytes: u64::MAX,
         };
         t.prepare(&ctx).unwrap();
         t

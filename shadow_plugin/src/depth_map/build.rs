@@ -70,7 +70,7 @@ impl Surfaces<'_> {
         // (slope <= 1, within 45 deg): the depth of a surface the light grazes steps steeply
         // from pixel to pixel, so rays leaving it dip under its neighbours' floors and would
         // stay blocked in a thick slab (measured: false shadows on a grazed wall).
-        if params.closed_volumes && hit.front_face && slope <= MAX_SOLID_SLOPE {
+        if params.switches.closed_volumes && hit.front_face && slope <= MAX_SOLID_SLOPE {
             let (mut from, mut from_error) = (z, e);
             for _ in 0..MAX_STACKED_SOLIDS {
                 let inside = Ray::new(ray.origin, ray.direction, from + 2.0 * from_error, f32::INFINITY);
@@ -112,14 +112,14 @@ impl Surfaces<'_> {
                     let Some((d, b)) = self.slab_after(img, self.start) else { continue };
                     (d_row[i], b_row[i]) = (d, b);
                     // The hidden layer: the first surface below this pixel's slab.
-                    if params.hidden_layer
+                    if params.switches.hidden_layer
                         && let Some((d2, b2)) = self.slab_after(img, b)
                     {
                         (d2_row[i], b2_row[i]) = (d2, b2);
                     }
                 }
             });
-        if !params.hidden_layer {
+        if !params.switches.hidden_layer {
             (depth2, bottom2) = (Vec::new(), Vec::new());
         }
         [depth, bottom, depth2, bottom2]

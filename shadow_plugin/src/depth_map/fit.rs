@@ -1,5 +1,5 @@
 //! Fitting a depth map's frustum: a box over the images of the receivers the light reaches
-//! (those something may shadow, with [`DepthMapParams::fit_shadowed`]), trimmed by
+//! (those something may shadow, with [`super::MapSwitches::fit_shadowed`]), trimmed by
 //! irradiance, grown by how far a shadow ray travels before it is above the nearest caster.
 
 use super::{DepthMapParams, LightFrame, MAX_TAN, RECEIVER_TRIM, grazing};
@@ -73,7 +73,7 @@ fn receiver_box(
             if e <= 0.0 {
                 return None;
             }
-            let fitted = !params.fit_shadowed
+            let fitted = !params.switches.fit_shadowed
                 || Shaft::new(light, v, scene_bound).is_none_or(|shaft| !scene.shaft_clear(&shaft));
             Some((p, e, fitted))
         })

@@ -20,7 +20,6 @@ pub use bounds::DepthBounds;
 use glam::{Vec2, Vec3};
 use pyramid::MinPyramid;
 use renderer::{KeyError, RectLight, ShadingPoint};
-use serde::{Deserialize, Serialize};
 
 /// The light's frame: origin at its centre, x and y along its edges, z along its normal
 /// (into the scene). Light samples have z = 0 in this frame.
@@ -76,15 +75,13 @@ impl LightFrame {
     }
 }
 
-/// Depth-map parameters shared by the depth-map methods, flattened into each one's table:
-/// `depth_map`, `slope_bias`, `slab_thickness`, `normal_offset`, `grazing_cos`. The other
-/// fields are code-only (ablations the accuracy example and tests switch).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// Depth-map parameters shared by the depth-map methods: what [`DepthMap::build`] reads.
+/// Each method's table spells them as keys (`depth_map`, `slope_bias`, `slab_thickness`,
+/// `normal_offset`, `grazing_cos`); [`MapSwitches`] are code-only.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DepthMapParams {
     /// Pixels per side (square). More pixels: finer silhouettes, larger filter regions.
     /// Typical 128 to 1024. Key `depth_map`.
-    #[serde(rename = "depth_map")]
     pub resolution: u32,
     /// Slope-scaled bias in depth-map pixels: each texel's floor is pushed back by
     /// `slope_bias x` the depth change of its surface across one pixel footprint (from the
@@ -99,18 +96,6 @@ pub struct DepthMapParams {
     pub slab_thickness: f32,
     /// Grazing normal offset, in pixel footprints (see [`DepthMap::lookup_point`]).
     pub normal_offset: f32,
-    /// Read closed meshes as solid (`plates`): where the light's ray through a pixel enters
-    /// a surface through its front face and next meets a back face, the pixel's slab reaches
-    /// down to that back face (a second depth layer), so a chair seat or a fox's leg blocks
-    /// the rays that pass under its top surface. Open surfaces keep `slab_thickness`.
-    #[serde(skip)]
-    pub closed_volumes: bool,
-    /// `plates`: a second layer per pixel, the first surface below the first one's slab (a
-    /// chair's frame under its seat, a vase's far wall), read like the first and OR-ed with
-    /// it: a ray is blocked if it passes through a slab of either layer. The same masks serve
-    /// both; queries cost up to twice as much where the layer is near.
-    #[serde(skip)]
-    pub hidden_layer: bool,
     /// Receivers the light grazes: where the cosine between a shading point's geometric
     /// normal and the direction to the light's centre is below this, traced rays answer
     /// (counted as `fallbacks_grazing`) and the point takes no part in fitting the map. The
@@ -122,12 +107,40 @@ pub struct DepthMapParams {
     /// side (toy-car), where they are most of the shadow cost. 0 turns it off. Measured:
     /// docs/notes/2026-11-21-grazing-receivers-traced.md.
     pub grazing_cos: f32,
+    /// How the map is built beyond its keys.
+    pub switches: MapSwitches,
+}
+
+/// The depth map's code-only switches: ablations the accuracy example and tests turn off
+/// (methods and presets set them; the scene file cannot).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MapSwitches {
+    /// Read closed meshes as solid (`plates`): where the light's ray through a pixel enters
+    /// a surface through its front face and next meets a back face, the pixel's slab reaches
+    /// down to that back face (a second depth layer), so a chair seat or a fox's leg blocks
+    /// the rays that pass under its top surface. Open surfaces keep `slab_thickness`.
+    pub closed_volumes: bool,
+    /// `plates`: a second layer per pixel, the first surface below the first one's slab (a
+    /// chair's frame under its seat, a vase's far wall), read like the first and OR-ed with
+    /// it: a ray is blocked if it passes through a slab of either layer. The same masks serve
+    /// both; queries cost up to twice as much where the layer is near.
+    pub hidden_layer: bool,
     /// Fit the map's frustum only to receivers something may shadow: those whose shaft to
     /// the light ([`renderer::Shaft`]) is not provably clear. A receiver outside the map is
     /// answered by the traced fallback, whose first shaft test proves it unblocked at the
     /// cost of one BVH query; the map's pixels go where the shadows are.
-    #[serde(skip)]
     pub fit_shadowed: bool,
+}
+
+impl MapSwitches {
+    /// Every switch on: the default.
+    pub const ALL: Self = Self { closed_volumes: true, hidden_layer: true, fit_shadowed: true };
+}
+
+impl Default for MapSwitches {
+    fn default() -> Self {
+        Self::ALL
+    }
 }
 
 impl DepthMapParams {
@@ -137,10 +150,8 @@ impl DepthMapParams {
             slope_bias: 1.0,
             slab_thickness: DEFAULT_SLAB,
             normal_offset: DEFAULT_NORMAL_OFFSET,
-            closed_volumes: true,
-            hidden_layer: true,
             grazing_cos: DEFAULT_GRAZING_COS,
-            fit_shadowed: true,
+            switches: MapSwitches::ALL,
         }
     }
 }
@@ -166,13 +177,6 @@ impl Default for DepthMapParams {
 pub const DEPTH_MAP_RANGE: std::ops::RangeInclusive<u32> = 4..=8192;
 
 impl DepthMapParams {
-    /// The code-only fields from `base` (the scene file cannot set them).
-    pub fn keep_code_only(&mut self, base: &Self) {
-        self.closed_volumes = base.closed_volumes;
-        self.hidden_layer = base.hidden_layer;
-        self.fit_shadowed = base.fit_shadowed;
-    }
-
     /// Checks the ranges; the key is the table's.
     pub fn validate(&self) -> Result<(), KeyError> {
         if !DEPTH_MAP_RANGE.contains(&self.resolution) {
@@ -221,9 +225,9 @@ pub struct DepthMap {
     pub caster_z_near: f32,
     /// Biased depth of the bottom of each pixel's slab (`plates` reading): at least the
     /// floor's depth times (1 + `slab_thickness` x pitch), deeper where a closed mesh's back
-    /// face lies below its front face (see [`DepthMapParams::closed_volumes`]).
+    /// face lies below its front face (see [`MapSwitches::closed_volumes`]).
     pub bottom: Vec<f32>,
-    /// The hidden layer ([`DepthMapParams::hidden_layer`]): per pixel the floor and slab
+    /// The hidden layer ([`MapSwitches::hidden_layer`]): per pixel the floor and slab
     /// bottom of the first surface below `bottom` (+inf where none); empty when off. Read
     /// only, never above `depth`.
     pub depth2: Vec<f32>,

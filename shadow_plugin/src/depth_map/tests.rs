@@ -65,7 +65,12 @@ fn floor_scene(card: bool, n: usize, corner: [f32; 2]) -> (Scene, RectLight, Vec
 /// 64^2 maps of the same receivers fitted to every lit one and to the shadowed ones.
 fn both_fits(scene: &Scene, light: &RectLight, visible: &[ShadingPoint]) -> (DepthMap, DepthMap) {
     let params = DepthMapParams::new(64);
-    let all_lit = DepthMap::build(scene, light, visible, &DepthMapParams { fit_shadowed: false, ..params });
+    let all_lit = DepthMap::build(
+        scene,
+        light,
+        visible,
+        &DepthMapParams { switches: MapSwitches { fit_shadowed: false, ..params.switches }, ..params },
+    );
     (all_lit, DepthMap::build(scene, light, visible, &params))
 }
 

@@ -50,14 +50,24 @@ pub fn march_bits(
     }
 }
 
-/// Parameters of `depth_march`: `[shadows.depth_march]`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// Parameters of `depth_march` (the scene file's `[shadows.depth_march]` is
+/// [`DepthMarchTable`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DepthMarchParams {
-    #[serde(flatten)]
     pub depth_map: DepthMapParams,
     /// How the depth map's heightfield is read.
     pub heightfield: Heightfield,
+}
+
+/// `[shadows.depth_march]`: the depth map's keys ([`DepthMapParams`]) and `heightfield`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DepthMarchTable {
+    depth_map: u32,
+    slope_bias: f32,
+    slab_thickness: f32,
+    normal_offset: f32,
+    grazing_cos: f32,
+    heightfield: Heightfield,
 }
 
 impl Default for DepthMarchParams {
@@ -81,8 +91,28 @@ impl ShadowMethod for DepthMarchParams {
 
 impl MethodParams for DepthMarchParams {
     const NAME: &'static str = DepthMarch::NAME;
-    fn keep_code_only(&mut self, base: &Self) {
-        self.depth_map.keep_code_only(&base.depth_map);
+    type Table = DepthMarchTable;
+    fn table(&self) -> DepthMarchTable {
+        let m = &self.depth_map;
+        DepthMarchTable {
+            depth_map: m.resolution,
+            slope_bias: m.slope_bias,
+            slab_thickness: m.slab_thickness,
+            normal_offset: m.normal_offset,
+            grazing_cos: m.grazing_cos,
+            heightfield: self.heightfield,
+        }
+    }
+    fn with_table(&self, t: DepthMarchTable) -> Self {
+        let depth_map = DepthMapParams {
+            resolution: t.depth_map,
+            slope_bias: t.slope_bias,
+            slab_thickness: t.slab_thickness,
+            normal_offset: t.normal_offset,
+            grazing_cos: t.grazing_cos,
+            switches: self.depth_map.switches,
+        };
+        Self { depth_map, heightfield: t.heightfield }
     }
     fn inapplicable(&self, key: &str) -> Option<String> {
         inapplicable_to_reading(key, self.heightfield)

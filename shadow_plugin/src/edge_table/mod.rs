@@ -38,11 +38,11 @@
 //! | `normal_offset` | float | 0.5 | published: lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
 //! | `grazing_cos` | float | 0.5 | published: receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
 //!
-//! The same list, held to [`EdgeTableParams`] by a test: `docs/scene-keys.md`. Code-only
-//! (the bench and the accuracy example switch them; presets set them): `mirrored` (build
-//! only the masks at sub-pixel offsets up to 1/2 and read the others as mirror images; off in
-//! `paper`; the exact reading never mirrors), and the depth map's `closed_volumes`,
-//! `hidden_layer` and `fit_shadowed` ([`DepthMapParams`](crate::DepthMapParams)).
+//! The same list, held to [`EdgeTableTable`] by a test: `docs/scene-keys.md`. Code-only
+//! ([`EdgeTableSwitches`]; the bench and the accuracy example switch them, presets set them):
+//! `mirrored` (build only the masks at sub-pixel offsets up to 1/2 and read the others as
+//! mirror images; off in `paper`; the exact reading never mirrors), and the depth map's
+//! `closed_volumes`, `hidden_layer` and `fit_shadowed` ([`MapSwitches`](crate::MapSwitches)).
 //!
 //! `samples` (`[shadows]`) is the number of rays per mask (at most 4096).
 //!
@@ -70,7 +70,10 @@ mod params;
 pub use crate::heightfield::Heightfield;
 pub use exact::{ExactMap, ExactMask, ExactStats};
 pub use mask::{Mask, MaskQuery, QueryStats};
-pub use params::{Blend, EdgeTableParams, GRID_RANGE, MAX_MASKS, PUBLISHED_ONLY, Preset, Reading};
+pub use params::{
+    Blend, EdgeTableParams, EdgeTableSwitches, EdgeTableTable, GRID_RANGE, MAX_MASKS, Preset,
+    PublishedParams, Reading,
+};
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthBounds, DepthMap};
@@ -113,10 +116,12 @@ struct ExactCounters {
 
 enum Prepared {
     Published {
-        map: DepthMap,
+        map: Box<DepthMap>,
         /// The masks built (all of the grid, or its mirror-image classes' representatives).
         masks: Vec<Mask>,
         grid: MaskGrid,
+        /// How the masks read the map.
+        heightfield: Heightfield,
     },
     Exact {
         map: Box<ExactMap>,
@@ -149,8 +154,9 @@ impl EdgeTable {
         }
     }
 
-    /// Builds the masks of grid cells `built`, level k's at depth `levels[k].0` marching up
-    /// to height `levels[k].1`, in parallel, until their bytes pass `budget`.
+    /// Builds the masks of grid cells `built` for reading the map as `heightfield`, level
+    /// k's at depth `levels[k].0` marching up to height `levels[k].1`, in parallel, until
+    /// their bytes pass `budget`.
     ///
     /// # Errors
     /// The masks need more than `budget` bytes (an error naming the parameters).
@@ -159,6 +165,7 @@ impl EdgeTable {
         ctx: &PrepareContext,
         map: &DepthMap,
         built: &[u32],
+        heightfield: Heightfield,
         levels: &[(f32, f32)],
         budget: u64,
     ) -> Result<Vec<Mask>, ShadowError> {
@@ -194,7 +201,7 @@ impl EdgeTable {
                     &mut Rng::new(stream_seed(&[seed, light_index, m as u64, 3])),
                 );
                 let (depth, h_stop) = levels[k as usize];
-                let mask = Mask::build_for(self.params.heightfield, offset, depth, s, pitch, h_stop);
+                let mask = Mask::build_for(heightfield, offset, depth, s, pitch, h_stop);
                 bytes.fetch_add(mask.bytes(), Ordering::Relaxed);
                 Some(mask)
             })
@@ -241,13 +248,13 @@ fn mask_height_cap(map: &DepthMap, visible: &[ShadingPoint]) -> f32 {
 impl EdgeTable {
     /// The published reading's prepare: the depth map, the depth levels, how high the masks
     /// march, the masks within the memory budget.
-    fn prepare_published(&self, ctx: &PrepareContext) -> Result<Prepared, ShadowError> {
-        let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map);
+    fn prepare_published(&self, ctx: &PrepareContext, p: &PublishedParams) -> Result<Prepared, ShadowError> {
+        let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map());
         let levels_span = tracing::info_span!("depth_levels").entered();
         let (levels, z_hi) = grid::depth_levels(&map, ctx.visible, self.params.grid[2]);
         // Each mask marches far enough for the deepest point it serves, and no further than
         // the receivers need.
-        let serve_hi = grid::serve_depths(&levels, z_hi, self.params.blend);
+        let serve_hi = grid::serve_depths(&levels, z_hi, p.blend);
         let h_cap = mask_height_cap(&map, ctx.visible);
         drop(levels_span);
         let per_level: Vec<(f32, f32)> = levels
@@ -255,10 +262,11 @@ impl EdgeTable {
             .zip(&serve_hi)
             .map(|(&z, &hi)| (z, stop_height(map.z_min, hi).min(h_cap)))
             .collect();
-        let layout = Layout::new(self.params.grid, self.params.mirrored);
-        let masks = self.build_masks(ctx, &map, &layout.built, &per_level, ctx.mask_budget_bytes)?;
-        let grid = MaskGrid { dims: self.params.grid, blend: self.params.blend, levels, cells: layout.cells };
-        Ok(Prepared::Published { map, masks, grid })
+        let layout = Layout::new(self.params.grid, self.params.switches.mirrored);
+        let budget = ctx.memory_budget_bytes;
+        let masks = self.build_masks(ctx, &map, &layout.built, p.heightfield, &per_level, budget)?;
+        let grid = MaskGrid { dims: self.params.grid, blend: p.blend, levels, cells: layout.cells };
+        Ok(Prepared::Published { map: Box::new(map), masks, grid, heightfield: p.heightfield })
     }
 
     /// The exact reading's prepare: the conservative bounds, the depth levels, how high the
@@ -271,7 +279,7 @@ impl EdgeTable {
         let stride = ctx.visible.len().div_ceil(exact::QUANTILE_POINTS).max(1);
         let visible: Vec<ShadingPoint> = ctx.visible.iter().step_by(stride).copied().collect();
         let (bounds, near) =
-            DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &self.params.depth_map);
+            DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &self.params.depth_map());
         let map =
             Box::new(ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() });
         let levels_span = tracing::info_span!("depth_levels").entered();
@@ -286,14 +294,18 @@ impl EdgeTable {
             })
             .collect();
         let layout = Layout::new(self.params.grid, false);
-        let masks = self.build_masks(ctx, &map.near, &layout.built, &per_level, ctx.mask_budget_bytes)?;
+        // Classification reads no walls: the masks are built without the `shells` reading's
+        // per-side tables.
+        let (built, budget) = (&layout.built, ctx.memory_budget_bytes);
+        let masks = self.build_masks(ctx, &map.near, built, Heightfield::Plates, &per_level, budget)?;
         let half = map.near.frame.half_size;
         let masks = masks.into_iter().map(|m| ExactMask::new(m, half)).collect();
         let grid = MaskGrid { dims: self.params.grid, blend: Blend::Nearest, levels, cells: layout.cells };
         Ok(Prepared::Exact { map, masks, grid })
     }
 
-    /// The published reading's answer: the masks read against the centre-ray depth map.
+    /// The published reading's answer: the masks read against the centre-ray depth map as
+    /// `heightfield`.
     fn visibility_published(
         &self,
         scene: &Scene,
@@ -301,6 +313,7 @@ impl EdgeTable {
         map: &DepthMap,
         masks: &[Mask],
         grid: &MaskGrid,
+        heightfield: Heightfield,
     ) -> f32 {
         let frame = &map.frame;
         // Grazed points and points outside the map: traced rays answer (counted).
@@ -332,7 +345,7 @@ impl EdgeTable {
             }
             let words = bits::words(mask.samples.len());
             let at = MaskQuery { map, base: [i + shift[0], j + shift[1]], mirror, pz: p.z, h_stop };
-            let stats = mask.query_mirrored(&at, self.params.heightfield, &mut visible);
+            let stats = mask.query_mirrored(&at, heightfield, &mut visible);
             lookups += stats.lookups;
             early_outs += stats.early_out as u64;
             culled += stats.blocks_culled;
@@ -444,14 +457,14 @@ impl LightShadowing for EdgeTable {
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
         self.state = None;
-        self.state = Some(match self.params.reading {
+        self.state = Some(match &self.params.reading {
             Reading::Exact => {
                 self.fallback.prepare(ctx)?;
                 self.prepare_exact(ctx)?
             }
-            Reading::Published => {
+            Reading::Published(p) => {
                 self.fallback.prepare(ctx)?;
-                self.prepare_published(ctx)?
+                self.prepare_published(ctx, p)?
             }
         });
         Ok(())
@@ -460,7 +473,9 @@ impl LightShadowing for EdgeTable {
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         match self.state.as_ref().expect("prepare() runs before visibility()") {
             Prepared::Exact { .. } => self.visibility_exact(scene, q, false),
-            Prepared::Published { map, masks, grid } => self.visibility_published(scene, q, map, masks, grid),
+            Prepared::Published { map, masks, grid, heightfield } => {
+                self.visibility_published(scene, q, map, masks, grid, *heightfield)
+            }
         }
     }
 

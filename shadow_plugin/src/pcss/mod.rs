@@ -76,7 +76,7 @@
 //! ```
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
-use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
+use crate::depth_map::{DepthMap, DepthMapParams, MapPoint, MapSwitches};
 use crate::fallback::{Located, MapFallback, OnMap};
 use crate::samples;
 use glam::{Vec2, Vec3};
@@ -87,11 +87,10 @@ use renderer::{
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Parameters of the PCSS method: `[shadows.pcss]` (see the module doc for the keys).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// Parameters of the PCSS method (the scene file's `[shadows.pcss]` is [`PcssTable`]; see
+/// the module doc for the keys).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PcssParams {
-    #[serde(flatten)]
     pub depth_map: DepthMapParams,
     /// Light samples read by the blocker search (1 to [`MAX_SAMPLES`]).
     pub blocker_samples: u32,
@@ -99,12 +98,28 @@ pub struct PcssParams {
 
 impl Default for PcssParams {
     fn default() -> Self {
-        // No grazing fallback: the real-time baseline traces only what falls off its map.
+        // No grazing fallback and no fit to the shadowed receivers: the real-time baseline
+        // traces only what falls off its map.
+        let switches = MapSwitches { fit_shadowed: false, ..MapSwitches::ALL };
         Self {
-            depth_map: DepthMapParams { grazing_cos: 0.0, fit_shadowed: false, ..DepthMapParams::new(256) },
+            depth_map: DepthMapParams { grazing_cos: 0.0, switches, ..DepthMapParams::new(256) },
             blocker_samples: 32,
         }
     }
+}
+
+/// `[shadows.pcss]`: the depth map's keys but `slab_thickness` ([`DepthMapParams`]), and
+/// `blocker_samples`. `slab_thickness` is read only to be refused by name (the other
+/// depth-map methods take it).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PcssTable {
+    depth_map: u32,
+    slope_bias: f32,
+    normal_offset: f32,
+    grazing_cos: f32,
+    blocker_samples: u32,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    slab_thickness: Option<f32>,
 }
 
 impl ShadowMethod for PcssParams {
@@ -121,8 +136,29 @@ impl ShadowMethod for PcssParams {
 
 impl MethodParams for PcssParams {
     const NAME: &'static str = Pcss::NAME;
-    fn keep_code_only(&mut self, base: &Self) {
-        self.depth_map.keep_code_only(&base.depth_map);
+    type Table = PcssTable;
+    fn table(&self) -> PcssTable {
+        let m = &self.depth_map;
+        PcssTable {
+            depth_map: m.resolution,
+            slope_bias: m.slope_bias,
+            normal_offset: m.normal_offset,
+            grazing_cos: m.grazing_cos,
+            blocker_samples: self.blocker_samples,
+            slab_thickness: None,
+        }
+    }
+    fn with_table(&self, t: PcssTable) -> Self {
+        let depth_map = DepthMapParams {
+            resolution: t.depth_map,
+            slope_bias: t.slope_bias,
+            // Not read: a table that sets it is refused (`inapplicable`).
+            slab_thickness: self.depth_map.slab_thickness,
+            normal_offset: t.normal_offset,
+            grazing_cos: t.grazing_cos,
+            switches: self.depth_map.switches,
+        };
+        Self { depth_map, blocker_samples: t.blocker_samples }
     }
     fn inapplicable(&self, key: &str) -> Option<String> {
         (key == "slab_thickness").then(|| "pcss reads no slabs (edge_table and depth_march do)".to_string())
@@ -236,7 +272,9 @@ impl LightShadowing for Pcss {
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
         // The same map as depth_march's; the closed-volume layer only changes the slab
         // bottoms, which PCSS never reads, so it is not traced.
-        let params = DepthMapParams { closed_volumes: false, hidden_layer: false, ..self.params.depth_map };
+        let map = self.params.depth_map;
+        let switches = MapSwitches { closed_volumes: false, hidden_layer: false, ..map.switches };
+        let params = DepthMapParams { switches, ..map };
         self.map = Some(DepthMap::build(ctx.scene, ctx.light, ctx.visible, &params));
         self.fallback.prepare(ctx)
     }

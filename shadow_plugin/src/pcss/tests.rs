@@ -232,7 +232,7 @@ fn pcss_lit_tilted_floor_from_a_built_map_is_exactly_one() {
         light_index: 0,
         visible: &visible,
         seed: 0,
-        mask_budget_bytes: u64::MAX,
+        memory_budget_bytes: u64::MAX,
     };
     m.prepare(&ctx).unwrap();
     for (k, vp) in visible.iter().enumerate() {
