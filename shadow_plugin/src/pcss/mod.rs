@@ -320,5 +320,6 @@ impl LightShadowing for Pcss {
     }
 }
 
+mod entry;
 #[cfg(test)]
 mod tests;
