@@ -8,7 +8,7 @@ use penumbra::bench::plot::{Style, style};
 use penumbra::bench::{BenchArgs, run_bench_in, sweep};
 use penumbra::config::ShadowsConfig;
 use penumbra::key_reference::{page, section_errors, sections};
-use penumbra::methods::{METHODS, Registered, find, value_parser_of};
+use penumbra::methods::{METHODS, Registered, find, names, value_parser_of};
 use renderer::interface::entry::top_samples;
 use renderer::{
     KeyError, LightShadowing, MethodEntry, MethodParams, PrepareContext, Scene, SceneError, ShadowError,
@@ -113,10 +113,8 @@ fn the_scene_file_reads_the_toys_table() {
         assert_eq!(shadows(text, &reg).expect_err(text).key, key, "{text}");
     }
     let e = shadows("method = \"magic\"", &reg).unwrap_err();
-    assert_eq!(
-        e.message,
-        "unknown method \"magic\"; expected one of \"traced\", \"none\", \"edge_table\", \"depth_march\", \"pcss\", \"toy\""
-    );
+    assert_eq!(e.message, format!("unknown method \"magic\"; expected one of {}, \"toy\"", names()));
+    assert!(names().starts_with("\"traced\", \"none\", \"edge_table\", \"depth_march\", \"pcss\""));
     let mut c = shadows("", &reg).unwrap();
     c.choose("toy", Path::new("s.toml"), "--shadows").unwrap();
     assert_eq!(c.name(), "toy");
@@ -143,7 +141,8 @@ fn the_key_reference_has_the_toys_section() {
     let reg = with_toy();
     let text = page(&reg);
     assert!(text.ends_with(&format!("\n## `[shadows.toy]`\n\n{}", ToyParams::KEYS_DOC)));
-    assert!(text.contains("`\"depth_march\"`, `\"pcss\"` or `\"toy\"`; `--shadows` overrides it"));
+    let listed: Vec<String> = METHODS.iter().map(|m| format!("`\"{}\"`", m.name)).collect();
+    assert!(text.contains(&format!("the shadow method: {} or `\"toy\"`; `--shadows`", listed.join(", "))));
     let others = page(METHODS);
     let first_section = others.find("\n## `[shadows.traced]`").unwrap();
     assert!(text.contains(&others[first_section..]), "the other sections unchanged, the toy's after them");
