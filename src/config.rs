@@ -3,7 +3,7 @@
 //! struct. Every table the file gives is checked, whichever method runs, so a typo under
 //! `[shadows.pcss]` is an error even while `traced` renders.
 
-use crate::methods::{self, METHODS};
+use crate::methods::{self, METHODS, Registered};
 use renderer::{LightShadowing, SceneError, ShadowMethod};
 use std::path::Path;
 use std::sync::Arc;
@@ -14,11 +14,12 @@ pub const DEFAULT_SAMPLES: u32 = 256;
 /// `[shadows]`, typed.
 #[derive(Debug, Clone)]
 pub struct ShadowsConfig {
-    /// Index into [`METHODS`] of the chosen method.
+    /// Index into `settings` of the chosen method.
     chosen: usize,
     /// Light samples per shading point (per mask for `edge_table`).
     pub samples: u32,
     /// Every registered method's settings, in registry order: the file's table or defaults.
+    /// Each one's [`ShadowMethod::name`] is its registered name.
     settings: Vec<Arc<dyn ShadowMethod>>,
 }
 
@@ -31,11 +32,24 @@ impl Default for ShadowsConfig {
 impl ShadowsConfig {
     /// Types the raw `[shadows]` table of `file`.
     pub fn from_table(table: &toml::Table, file: &Path) -> Result<Self, SceneError> {
+        Self::from_table_in(table, file, METHODS)
+    }
+
+    /// Types the raw `[shadows]` table of `file` with the methods of `methods` (the first
+    /// one the default).
+    pub fn from_table_in(
+        table: &toml::Table,
+        file: &Path,
+        methods: &[Registered],
+    ) -> Result<Self, SceneError> {
+        let names: Vec<&'static str> = methods.iter().map(|m| m.name).collect();
         let mut config = Self { chosen: 0, samples: DEFAULT_SAMPLES, settings: Vec::new() };
         for (key, value) in table {
             let key_path = format!("shadows.{key}");
             match (key.as_str(), value) {
-                ("method", toml::Value::String(name)) => config.chosen = index(name, file, &key_path)?,
+                ("method", toml::Value::String(name)) => {
+                    config.chosen = index(&names, name, file, &key_path)?
+                }
                 ("samples", toml::Value::Integer(n)) => {
                     config.samples = u32::try_from(*n).map_err(|_| {
                         SceneError::new(file, &key_path, format!("must be in 1..=65536, got {n}"))
@@ -43,20 +57,27 @@ impl ShadowsConfig {
                 }
                 ("method", _) => return Err(SceneError::new(file, key_path, "must be a string")),
                 ("samples", _) => return Err(SceneError::new(file, key_path, "must be an integer")),
-                (name, value) if methods::find(name).is_some() && !value.is_table() => {
+                (name, value) if names.contains(&name) && !value.is_table() => {
                     return Err(SceneError::new(file, key_path, "must be a table"));
                 }
-                (name, _) if methods::find(name).is_none() => {
-                    let known = format!("\"method\", \"samples\" or a method's table ({})", methods::names());
+                (name, _) if !names.contains(&name) => {
+                    let known = format!(
+                        "\"method\", \"samples\" or a method's table ({})",
+                        methods::names_of(names.iter().copied())
+                    );
                     return Err(SceneError::new(file, key_path, format!("unknown key; expected {known}")));
                 }
                 _ => {}
             }
         }
         let empty = toml::Table::new();
-        for m in METHODS {
+        for m in methods {
             let own = table.get(m.name).and_then(toml::Value::as_table).unwrap_or(&empty);
-            config.settings.push(Arc::from((m.parse)(own, file, &format!("shadows.{}", m.name))?));
+            let setting: Arc<dyn ShadowMethod> =
+                Arc::from((m.parse)(own, file, &format!("shadows.{}", m.name))?);
+            // `name()` and `set_method` find a method by the name its settings give.
+            assert_eq!(setting.name(), m.name, "a method's settings are named as it is registered");
+            config.settings.push(setting);
         }
         config.validate(file, "shadows.samples")?;
         Ok(config)
@@ -64,13 +85,13 @@ impl ShadowsConfig {
 
     /// Chooses the method called `name` (the `--shadows` override); `key` names the source.
     pub fn choose(&mut self, name: &str, file: &Path, key: &str) -> Result<(), SceneError> {
-        self.chosen = index(name, file, key)?;
+        self.chosen = index(&self.names(), name, file, key)?;
         Ok(())
     }
 
     /// Chooses `method` with these settings (code-only fields included): studies and tests.
     pub fn set_method(&mut self, method: Arc<dyn ShadowMethod>) {
-        self.chosen = METHODS.iter().position(|m| m.name == method.name()).expect("a registered method");
+        self.chosen = self.names().iter().position(|&m| m == method.name()).expect("a registered method");
         self.settings[self.chosen] = method;
     }
 
@@ -81,7 +102,12 @@ impl ShadowsConfig {
 
     /// The chosen method's name.
     pub fn name(&self) -> &'static str {
-        METHODS[self.chosen].name
+        self.method().name()
+    }
+
+    /// The registered methods' names, in registry order.
+    fn names(&self) -> Vec<&'static str> {
+        self.settings.iter().map(|m| m.name()).collect()
     }
 
     /// A fresh, unprepared plugin for one light.
@@ -104,8 +130,10 @@ impl ShadowsConfig {
     }
 }
 
-fn index(name: &str, file: &Path, key: &str) -> Result<usize, SceneError> {
-    METHODS.iter().position(|m| m.name == name).ok_or_else(|| {
-        SceneError::new(file, key, format!("unknown method \"{name}\"; expected one of {}", methods::names()))
+/// The index of `name` in `names`, or an error naming `key`.
+fn index(names: &[&'static str], name: &str, file: &Path, key: &str) -> Result<usize, SceneError> {
+    names.iter().position(|&m| m == name).ok_or_else(|| {
+        let expected = methods::names_of(names.iter().copied());
+        SceneError::new(file, key, format!("unknown method \"{name}\"; expected one of {expected}"))
     })
 }

@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod config;
 pub mod heat;
+pub mod key_reference;
 pub mod memory;
 pub mod methods;
 pub mod profile;

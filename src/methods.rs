@@ -1,66 +1,99 @@
 //! The registry: every shadow method by name. This is the one place that knows every
-//! plugin; a method's parameters, defaults, checks and constructor live in its own file
-//! ([`renderer::MethodParams`]), so adding a method is that file, one line here and its section in docs/scene-keys.md.
+//! plugin, one line each. Everything else about a method lives in its own folder: its
+//! parameters, defaults, checks and constructor ([`renderer::MethodParams`]), and its help
+//! line, key reference section, bench sweep and plot colour ([`renderer::MethodEntry`]). The
+//! scene file's `[shadows]`, `--shadows`, the bench and the key reference loop over
+//! [`METHODS`] (or a registry given in its place, in tests).
 
 use renderer::interface::method::{default_table, parse_boxed};
-use renderer::{MethodParams, SceneError, ShadowMethod, TracedParams, Unshadowed};
+use renderer::{MethodEntry, SceneError, ShadowMethod, SweepSetting, TracedParams, Unshadowed};
 use shadow_plugin::{DepthMarchParams, EdgeTableParams, PcssParams};
 use std::path::Path;
 
 /// Parses a method's `[shadows.<name>]` table (`prefix` names it in errors).
 pub type ParseFn = fn(&toml::Table, &Path, &str) -> Result<Box<dyn ShadowMethod>, SceneError>;
 
-/// One method: its name, a line of help, its parser and its keys.
+/// One method: what the rest of the program needs to know of it, read off its
+/// [`MethodEntry`] implementation.
+#[derive(Clone, Copy)]
 pub struct Registered {
     pub name: &'static str,
+    /// A line of help.
     pub about: &'static str,
     pub parse: ParseFn,
     /// The keys its table takes, with their defaults (choice keys such as `preset` aside).
     pub keys: fn() -> toml::Table,
     /// Keys that pick a starting point (a preset) rather than set a field.
     pub choice_keys: &'static [&'static str],
+    /// The keys its section of the key reference documents, with their defaults.
+    pub documented_keys: fn() -> toml::Table,
+    /// Its section of the key reference (Markdown, without the heading).
+    pub keys_doc: &'static str,
+    /// The settings the bench sweeps (`--quick` or not), in order.
+    pub sweep: fn(bool) -> Vec<SweepSetting>,
+    /// Where its settings go in the bench's sweep: lowest first, ties in registry order.
+    pub bench_rank: u32,
+    /// Its plot colour (sRGB) and whether its points are joined into a line.
+    pub colour: [u8; 3],
+    pub plot_line: bool,
 }
 
 impl Registered {
-    const fn of<M: MethodParams>(about: &'static str) -> Self {
+    /// The entry of method `M`.
+    pub const fn of<M: MethodEntry>() -> Self {
         Self {
             name: M::NAME,
-            about,
+            about: M::ABOUT,
             parse: parse_boxed::<M>,
             keys: default_table::<M>,
             choice_keys: M::CHOICE_KEYS,
+            documented_keys: M::documented_keys,
+            keys_doc: M::KEYS_DOC,
+            sweep: M::sweep,
+            bench_rank: M::BENCH_RANK,
+            colour: M::COLOUR,
+            plot_line: M::PLOT_LINE,
         }
     }
 }
 
 /// Every method, the default first.
 pub const METHODS: &[Registered] = &[
-    Registered::of::<TracedParams>(
-        "Shadow rays through the BVH to `samples` stratified points on the light: the truth",
-    ),
-    Registered::of::<Unshadowed>("No shadows (V = 1): the cost floor"),
-    Registered::of::<EdgeTableParams>(
-        "Edge-table masks (Egan & Neulander 2004) classifying each ray against conservative depth bounds; the BVH traces only what they cannot settle: exact",
-    ),
-    Registered::of::<DepthMarchParams>(
-        "Each shadow ray marched through the same depth map (walls and floors)",
-    ),
-    Registered::of::<PcssParams>("Percentage-closer soft shadows (Fernando 2005) on the same depth map"),
+    Registered::of::<TracedParams>(),
+    Registered::of::<Unshadowed>(),
+    Registered::of::<EdgeTableParams>(),
+    Registered::of::<DepthMarchParams>(),
+    Registered::of::<PcssParams>(),
 ];
+
+/// The method of `methods` called `name`.
+pub fn find_in<'a>(methods: &'a [Registered], name: &str) -> Option<&'a Registered> {
+    methods.iter().find(|m| m.name == name)
+}
 
 /// The method called `name`.
 pub fn find(name: &str) -> Option<&'static Registered> {
-    METHODS.iter().find(|m| m.name == name)
+    find_in(METHODS, name)
+}
+
+/// The names of `methods`, for messages: `"traced", "none", ...`.
+pub fn names_of<'a>(methods: impl IntoIterator<Item = &'a str>) -> String {
+    methods.into_iter().map(|m| format!("\"{m}\"")).collect::<Vec<_>>().join(", ")
 }
 
 /// The registered names, for messages: `"traced", "none", ...`.
 pub fn names() -> String {
-    METHODS.iter().map(|m| format!("\"{}\"", m.name)).collect::<Vec<_>>().join(", ")
+    names_of(METHODS.iter().map(|m| m.name))
+}
+
+/// A `--shadows` parser: the names of `methods`, each with its help line.
+pub fn value_parser_of(methods: &[Registered]) -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(
+        methods.iter().map(|m| clap::builder::PossibleValue::new(m.name).help(m.about)),
+    )
 }
 
 /// `--shadows`'s parser: the registered names, each with its help line.
 pub fn value_parser() -> clap::builder::PossibleValuesParser {
-    clap::builder::PossibleValuesParser::new(
-        METHODS.iter().map(|m| clap::builder::PossibleValue::new(m.name).help(m.about)),
-    )
+    value_parser_of(METHODS)
 }

@@ -3,9 +3,10 @@
 //! presets, and the code-only switches kept out of the scene file.
 
 use penumbra::config::ShadowsConfig;
+use penumbra::key_reference;
 use penumbra::methods::METHODS;
 use renderer::interface::method::default_table;
-use renderer::{MethodParams, SceneError, TracedParams, parse_method};
+use renderer::{MethodEntry, MethodParams, SceneError, TracedParams, parse_method};
 use shadow_plugin::{
     Blend, DepthMarchParams, EdgeTableParams, Heightfield, PcssParams, PublishedParams, Reading,
 };
@@ -50,25 +51,10 @@ fn published(c: &EdgeTableParams) -> PublishedParams {
 
 /// docs/scene-keys.md: per `## \`[shadows.NAME]\`` section, each row's key and default.
 fn documented() -> BTreeMap<String, BTreeMap<String, String>> {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scene-keys.md")).unwrap();
-    let mut out: BTreeMap<String, BTreeMap<String, String>> = BTreeMap::new();
-    let mut section = None;
-    for line in text.lines() {
-        if let Some(h) = line.strip_prefix("## `[").and_then(|h| h.strip_suffix("]`")) {
-            section = Some(h.to_string());
-            out.entry(h.to_string()).or_default();
-            continue;
-        }
-        let cells: Vec<&str> = line.split('|').map(str::trim).collect();
-        if let (Some(s), [_, key, _, default, ..]) = (&section, cells.as_slice())
-            && key.starts_with('`')
-        {
-            let strip = |c: &str| c.trim_matches('`').to_string();
-            out.get_mut(s).unwrap().insert(strip(key), strip(default));
-        }
-    }
-    out
+    key_reference::sections(&std::fs::read_to_string(KEY_REFERENCE).unwrap())
 }
+
+const KEY_REFERENCE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/scene-keys.md");
 
 #[test]
 fn the_key_reference_lists_every_key_with_its_default() {
@@ -76,29 +62,47 @@ fn the_key_reference_lists_every_key_with_its_default() {
     for m in METHODS {
         let section = format!("shadows.{}", m.name);
         let doc = docs.get(&section).unwrap_or_else(|| panic!("docs/scene-keys.md has no section {section}"));
-        let mut expected: BTreeMap<String, String> =
-            (m.keys)().into_iter().map(|(k, v)| (k, v.to_string())).collect();
-        if m.name == "edge_table" {
-            // The published reading's keys (inapplicable to the default, exact one) are
-            // documented with their values under `reading = "published"`.
-            let only = published_only();
-            for (k, v) in published_table() {
-                if only.contains(&k) {
-                    expected.insert(k, v.to_string());
-                }
-            }
-        }
-        for k in m.choice_keys {
-            let documented_default = doc.get(*k).unwrap_or_else(|| panic!("{section}.{k} undocumented"));
-            expected.insert(k.to_string(), documented_default.clone());
-        }
+        // Its keys at their defaults, and whatever more it documents (edge_table: the
+        // published reading's keys, inapplicable to the default exact one, with their
+        // values under `reading = "published"`); choice keys with their documented default.
+        let expected = key_reference::expected_keys(m, doc).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(doc, &expected, "{section}: docs/scene-keys.md against the parameter struct");
+        assert_eq!(key_reference::section_errors(m), Vec::<String>::new(), "{section}");
     }
     let top = &docs["shadows"];
     let defaults = ShadowsConfig::default();
     assert_eq!(top["method"], format!("\"{}\"", defaults.name()));
     assert_eq!(top["samples"], defaults.samples.to_string());
     assert_eq!(docs.len(), METHODS.len() + 1, "a section for [shadows] and one per method");
+}
+
+/// The page is generated from the registry: `PENUMBRA_BLESS=1` rewrites it, else a stale one
+/// fails.
+#[test]
+fn the_key_reference_is_the_registrys() {
+    let page = key_reference::page(METHODS);
+    let mut file = std::fs::read_to_string(KEY_REFERENCE).unwrap();
+    if file != page && std::env::var_os("PENUMBRA_BLESS").is_some() {
+        // (The other tests here read the file: a blessed run may fail them once.)
+        std::fs::write(KEY_REFERENCE, &page).unwrap();
+        file = page.clone();
+    }
+    assert!(
+        file == page,
+        "docs/scene-keys.md is stale: `PENUMBRA_BLESS=1 cargo test --test scene_keys` rewrites it from the registry"
+    );
+}
+
+/// What the key reference held edge_table's section to before the method said it: its keys
+/// at their defaults, and the published reading's own keys with their published values.
+#[test]
+fn edge_table_documents_the_published_keys_with_their_published_values() {
+    let published = published_table();
+    let mut expected = (penumbra::methods::find("edge_table").unwrap().keys)();
+    for k in published_only() {
+        expected.insert(k.clone(), published[&k].clone());
+    }
+    assert_eq!(EdgeTableParams::documented_keys(), expected);
 }
 
 #[test]

@@ -2,6 +2,7 @@
 //! and its pixels are sane: finite, non-negative radiance; visibility in [0, 1] or -1; some
 //! of the frame lit and some of it in shadow.
 
+use penumbra::methods::METHODS;
 use penumbra::{RenderArgs, run_render};
 use std::path::PathBuf;
 
@@ -123,7 +124,7 @@ fn every_shared_scene_path_traces_with_every_method_deterministically() {
     let dir = std::env::temp_dir().join(format!("penumbra-paths-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     for path in &names {
-        for method in ["traced", "edge_table", "depth_march", "pcss", "none"] {
+        for method in METHODS.iter().map(|m| m.name) {
             let run = |threads: u32| {
                 let out = dir.join(format!("{method}-{threads}.png"));
                 let args = penumbra::RenderArgs {

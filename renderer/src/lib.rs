@@ -18,6 +18,7 @@ pub use geometry::point::ShadingPoint;
 pub use geometry::scene::{Scene, SurfaceHit};
 pub use geometry::shaft::Shaft;
 pub use integrator::render::{Frame, RenderSettings, render};
+pub use interface::entry::{MethodEntry, SweepSetting};
 pub use interface::method::{KeyError, MethodParams, ShadowMethod, parse_method};
 pub use interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
 pub use load::config::SceneFile;

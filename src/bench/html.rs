@@ -44,7 +44,7 @@ fn scene_head(h: &mut String, r: &SceneResult) {
     let _ = write!(
         h,
         "<h2>{}</h2>\n<p>{} ({} triangles), {}x{}, truth: traced N={}{}. Equal-error speedup of \
-edge_table (default, highlighted): on visibility RMSE {}; on the image's relative RMSE {}; on penumbra RMSE {}.</p>\n<p><img class=\"plot\" src=\"{}/plot.png\" alt=\"{} plot\"><br>\
+{} (default, highlighted): on visibility RMSE {}; on the image's relative RMSE {}; on penumbra RMSE {}.</p>\n<p><img class=\"plot\" src=\"{}/plot.png\" alt=\"{} plot\"><br>\
 <small>x: shadow cost (s), y: visibility RMSE, both log; a line per method; the Pareto front ringed \
 (<a href=\"{}/plot.svg\">SVG</a>).</small></p>\n",
         esc(&r.stem),
@@ -54,17 +54,18 @@ edge_table (default, highlighted): on visibility RMSE {}; on the image's relativ
         r.height,
         r.truth_samples,
         if r.truth_cached { ", from the cache" } else { "" },
-        esc(&speedup_text(&r.speedup)),
-        esc(&speedup_text(&r.speedup_image)),
-        esc(&speedup_text(&r.speedup_penumbra)),
+        esc(r.headline.unwrap_or("the headline setting")),
+        esc(&speedup_text(&r.speedup, r.headline)),
+        esc(&speedup_text(&r.speedup_image, r.headline)),
+        esc(&speedup_text(&r.speedup_penumbra, r.headline)),
         esc(&r.stem),
         esc(&r.stem),
         esc(&r.stem)
     );
 }
 
-/// A scene's table, a line per setting (`edge_table`'s default highlighted), and the
-/// settings skipped.
+/// A scene's table, a line per setting (the headline, `edge_table`'s default, highlighted),
+/// and the settings skipped.
 fn table(h: &mut String, r: &SceneResult) {
     h.push_str(
         "<table><tr><th>setting</th><th>shadow cost (s)</th><th>prepare (s)</th><th>render (s)</th>\
@@ -79,7 +80,7 @@ fn table(h: &mut String, r: &SceneResult) {
             "<tr{}><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.4}</td><td>{:.4}</td>\
 <td>{:.3}</td><td>{:.3}</td><td>{:.2}%</td><td>{:.3}%</td><td>{:.4}</td><td>{:.1}%</td><td>{:.0}</td>\
 <td>{:.1}%</td><td>{:.0}</td><td>{:.1}</td></tr>",
-            if row.edge_table_default { " class=\"default\"" } else { "" },
+            if row.headline { " class=\"default\"" } else { "" },
             esc(&row.setting),
             row.shadow_cost_s,
             row.shadow_prepare_s,

@@ -2,10 +2,11 @@
 //! run time against error.
 //!
 //! Per scene: `none` (the cost floor, and which pixels each light reaches), the truth
-//! (`traced` at `--truth-samples`, cached: [`truth`]), then the sweep ([`sweep()`]): `traced`
-//! at N = 4, 16, 64, 256, 1024 and `traced plain` (no shaft culling) at the top count,
-//! `depth_march`, `edge_table` over depth-map sizes, grids, blend
-//! modes and sample counts, and `pcss`. Every setting runs `--repeats` times; times are
+//! (`traced` at `--truth-samples`, cached: [`truth`]), then the sweep ([`sweep()`]): each
+//! registered method's own settings ([`renderer::MethodEntry::sweep`]; today `traced` at
+//! N = 4, 16, 64, 256, 1024 and `traced plain` (no shaft culling) at the top count,
+//! `depth_march`, `edge_table` over depth-map sizes, grids, blend modes and sample counts,
+//! and `pcss`). Every setting runs `--repeats` times; times are
 //! medians, errors come from the first run (every run gives the same bytes). The shadow
 //! cost of a run is `shadow_prepare + render - render(none)`, medians of each.
 //!
@@ -27,8 +28,9 @@ mod sweep;
 pub mod truth;
 
 pub use report::{Row, SceneResult, Speedup};
-pub use sweep::{PLAIN_TRACED, Setting, sweep};
+pub use sweep::{Setting, sweep};
 
+use crate::methods::{METHODS, Registered};
 use renderer::SceneError;
 use renderer::util::output::StagedFiles;
 use std::path::{Path, PathBuf};
@@ -103,8 +105,14 @@ pub const BENCH_WIDTH: u32 = 320;
 pub const QUICK_WIDTH: u32 = 64;
 pub const QUICK_TRUTH_SAMPLES: u32 = 256;
 
-/// Runs the bench. Progress lines go to stderr unless `--quiet`; the summary is returned.
+/// Runs the bench on every registered method. Progress lines go to stderr unless `--quiet`;
+/// the summary is returned.
 pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
+    run_bench_in(args, METHODS)
+}
+
+/// [`run_bench`] with the methods of `methods`: their sweeps, their plot colours.
+pub fn run_bench_in(args: &BenchArgs, methods: &[Registered]) -> Result<String, SceneError> {
     let out = args.out_dir();
     let (threads, pool) = crate::thread_pool(args.threads, &out)?;
     let plan = scene::Plan {
@@ -117,7 +125,8 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
             args.truth_samples
         },
         cache: args.cache.clone().unwrap_or_else(|| out.join("truth-cache")),
-        settings: sweep(args.quick),
+        settings: sweep(args.quick, methods),
+        methods,
     };
     let scenes = scene::check_scenes(args)?;
     std::fs::create_dir_all(&out)

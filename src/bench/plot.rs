@@ -6,14 +6,33 @@
 //! a few usual system paths is registered at run time. Without one the plots are drawn
 //! without text, and the HTML report's captions name the axes.
 
+use crate::methods::{Registered, find_in};
 use plotters::prelude::*;
 use std::path::Path;
 use std::sync::OnceLock;
 
-/// One point: (shadow cost in s, visibility RMSE).
+/// One method family's points: (shadow cost in s, visibility RMSE).
 pub struct Series<'a> {
     pub family: &'a str,
+    pub style: Style,
     pub points: Vec<(f64, f64)>,
+}
+
+/// How a family is drawn: its colour (fixed, so every scene's plot reads the same), and
+/// whether its points are joined into a line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Style {
+    pub colour: [u8; 3],
+    pub line: bool,
+}
+
+/// The style `methods` registers for `family` ([`renderer::MethodEntry::COLOUR`] and
+/// [`renderer::MethodEntry::PLOT_LINE`]); a family not registered: purple points.
+pub fn style(methods: &[Registered], family: &str) -> Style {
+    find_in(methods, family).map_or(Style { colour: [148, 103, 189], line: false }, |m| Style {
+        colour: m.colour,
+        line: m.plot_line,
+    })
 }
 
 const FONT_CANDIDATES: &[&str] = &[
@@ -44,17 +63,6 @@ pub fn have_font() -> bool {
         }
         false
     })
-}
-
-/// Colour of a method family (fixed, so every scene's plot reads the same).
-fn colour(family: &str) -> RGBColor {
-    match family {
-        "traced" => RGBColor(90, 90, 90),
-        "edge_table" => RGBColor(214, 39, 40),
-        "depth_march" => RGBColor(31, 119, 180),
-        "pcss" => RGBColor(44, 160, 44),
-        _ => RGBColor(148, 103, 189),
-    }
 }
 
 /// The points that can be drawn on log axes: finite errors (NaN means no lit pixel), a
@@ -142,12 +150,13 @@ fn chart<DB: DrawingBackend>(
     }
     mesh.draw()?;
     for s in series {
-        let c = colour(s.family);
+        let [r, g, b] = s.style.colour;
+        let c = RGBColor(r, g, b);
         let mut pts = finite(&s.points);
         pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        // Only `traced` is a curve (one parameter, N); the other families' settings differ in
-        // several ways at once, so they are points, not a line.
-        let line = if s.family == "traced" {
+        // A family of one parameter (traced's N) is a curve; the other families' settings
+        // differ in several ways at once, so they are points, not a line.
+        let line = if s.style.line {
             chart.draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))?
         } else {
             chart.draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
@@ -207,6 +216,21 @@ mod tests {
         assert_eq!(tick_label(0.001), "0.001");
         assert_eq!(tick_label(2.5e-7), "0");
         assert_eq!(tick_label(-2.5e-7), "0");
+    }
+
+    #[test]
+    fn each_method_keeps_its_colour() {
+        let methods = crate::methods::METHODS;
+        let colour = |family: &str| style(methods, family).colour;
+        assert_eq!(colour("traced"), [90, 90, 90]);
+        assert_eq!(colour("edge_table"), [214, 39, 40]);
+        assert_eq!(colour("depth_march"), [31, 119, 180]);
+        assert_eq!(colour("pcss"), [44, 160, 44]);
+        assert_eq!(colour("none"), [148, 103, 189]);
+        assert_eq!(colour("unregistered"), [148, 103, 189]);
+        let lines: Vec<&str> =
+            methods.iter().filter(|m| style(methods, m.name).line).map(|m| m.name).collect();
+        assert_eq!(lines, ["traced"], "only traced is a curve");
     }
 
     #[test]

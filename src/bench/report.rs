@@ -3,7 +3,6 @@
 
 use super::BenchArgs;
 use super::metrics::Errors;
-use super::sweep::PLAIN_TRACED;
 use serde::Serialize;
 use std::fmt::Write as _;
 
@@ -14,7 +13,13 @@ pub struct Row {
     pub method: String,
     pub setting: String,
     pub samples: u32,
-    pub edge_table_default: bool,
+    /// The headline setting's row ([`renderer::SweepSetting::headline`]). The column is
+    /// named for the one method that has one, `edge_table`'s default.
+    #[serde(rename = "edge_table_default")]
+    pub headline: bool,
+    /// A reference of the equal-error speedup ([`renderer::SweepSetting::reference`]).
+    #[serde(skip)]
+    pub reference: bool,
     pub width: u32,
     pub height: u32,
     pub repeats: u32,
@@ -58,7 +63,7 @@ fn csv_line(r: &Row) -> String {
         r.method,
         csv_field(&r.setting),
         r.samples,
-        r.edge_table_default,
+        r.headline,
         r.width,
         r.height,
         r.repeats,
@@ -139,12 +144,14 @@ pub struct SceneResult {
     pub rows: Vec<Row>,
     /// Per method family, the best setting's figures.
     pub best: Vec<BestFigures>,
-    /// The equal-error speedup of `edge_table` (default, 1024 samples), if it was run: on
-    /// visibility RMSE, on the final image's relative RMSE (what a user sees) and on the
-    /// penumbra RMSE.
+    /// The equal-error speedup of the headline setting (`edge_table`'s default at the top
+    /// count), if it was run: on visibility RMSE, on the final image's relative RMSE (what a
+    /// user sees) and on the penumbra RMSE.
     pub speedup: Option<Speedup>,
     pub speedup_image: Option<Speedup>,
     pub speedup_penumbra: Option<Speedup>,
+    /// The headline setting's method, if the sweep has one.
+    pub headline: Option<&'static str>,
     /// Settings not run (see `--max-run-seconds`).
     pub skipped: Vec<String>,
 }
@@ -162,8 +169,9 @@ pub struct BestFigures {
 }
 
 /// The equal-error speedup (the definition): the shadow cost of the cheapest
-/// `traced` run whose RMSE is at or below `edge_table`'s (defaults, 1024 samples), divided
-/// by `edge_table`'s.
+/// reference run (`traced` as it ships) whose RMSE is at or below the headline's
+/// (`edge_table`'s defaults, 1024 samples), divided by the headline's. The fields are named
+/// for those two (`results.json`'s keys).
 #[derive(Debug, Clone, Serialize)]
 pub struct Speedup {
     pub edge_table_rmse: f64,
@@ -207,24 +215,16 @@ pub(super) fn equal_error_speedup(rows: &[Row]) -> Option<Speedup> {
     equal_error_speedup_on(rows, Measure::Visibility)
 }
 
-/// The equal-error speedup of the default `edge_table` row against the `traced` runs, on
-/// `measure`.
+/// The equal-error speedup of the headline row against the reference runs, on `measure`.
 pub(super) fn equal_error_speedup_on(rows: &[Row], measure: Measure) -> Option<Speedup> {
     let rows: Vec<Row> = rows
         .iter()
         .map(|r| Row { errors: Errors { rmse: measure.of(&r.errors), ..r.errors }, ..r.clone() })
         .collect();
     let rows = &rows[..];
-    let et = rows.iter().find(|r| r.edge_table_default)?;
-    let mut traced: Vec<&Row> = rows
-        .iter()
-        .filter(|r| {
-            r.method == "traced"
-                && !r.setting.starts_with(PLAIN_TRACED)
-                && r.errors.rmse.is_finite()
-                && r.shadow_cost_s > 0.0
-        })
-        .collect();
+    let et = rows.iter().find(|r| r.headline)?;
+    let mut traced: Vec<&Row> =
+        rows.iter().filter(|r| r.reference && r.errors.rmse.is_finite() && r.shadow_cost_s > 0.0).collect();
     // No lit pixel (NaN errors) or a cost lost in the noise: no meaningful ratio.
     if !et.errors.rmse.is_finite() || et.shadow_cost_s <= 0.0 || traced.is_empty() {
         return None;
@@ -272,11 +272,13 @@ pub(super) fn ratio_text(r: f64) -> String {
     format!("{r:.decimals$}x")
 }
 
-pub(super) fn speedup_text(s: &Option<Speedup>) -> String {
+/// A speedup of the headline setting, whose method is `headline`.
+pub(super) fn speedup_text(s: &Option<Speedup>, headline: Option<&str>) -> String {
+    let headline = headline.unwrap_or("headline");
     match s {
-        None => "n/a (no edge_table default row, no lit pixel, or costs within the noise)".into(),
+        None => format!("n/a (no {headline} default row, no lit pixel, or costs within the noise)"),
         Some(s) => format!(
-            "{}{} (edge_table RMSE {:.4} at {:.3} s; {} at {:.3} s{}{})",
+            "{}{} ({headline} RMSE {:.4} at {:.3} s; {} at {:.3} s{}{})",
             if s.at_least {
                 ">= "
             } else if s.at_most {
@@ -318,9 +320,15 @@ pub(super) fn summary(args: &BenchArgs, results: &[SceneResult]) -> String {
                 );
             }
         }
-        let _ = writeln!(s, "  equal-error speedup of edge_table: {}", speedup_text(&r.speedup));
-        let _ = writeln!(s, "    on image error: {}", speedup_text(&r.speedup_image));
-        let _ = writeln!(s, "    on penumbra RMSE: {}", speedup_text(&r.speedup_penumbra));
+        let head = r.headline;
+        let _ = writeln!(
+            s,
+            "  equal-error speedup of {}: {}",
+            head.unwrap_or("the headline setting"),
+            speedup_text(&r.speedup, head)
+        );
+        let _ = writeln!(s, "    on image error: {}", speedup_text(&r.speedup_image, head));
+        let _ = writeln!(s, "    on penumbra RMSE: {}", speedup_text(&r.speedup_penumbra, head));
         if !r.skipped.is_empty() {
             let _ = writeln!(s, "  skipped: {}", r.skipped.join("; "));
         }
@@ -339,7 +347,8 @@ mod tests {
             method: method.into(),
             setting: setting.into(),
             samples: 0,
-            edge_table_default: default,
+            headline: default,
+            reference: method == "traced",
             width: 1,
             height: 1,
             repeats: 1,

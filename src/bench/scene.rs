@@ -3,9 +3,10 @@
 
 use super::report::{Measure, Row, SceneResult, equal_error_speedup, equal_error_speedup_on};
 use super::run::{Run, median, run_setting};
-use super::sweep::{CostOrder, Setting, no_costlier, none_setting};
+use super::sweep::{Setting, no_costlier, none_setting};
 use super::truth::Truth;
 use super::{BENCH_WIDTH, BenchArgs, QUICK_WIDTH, cost, figures, metrics, plot, truth};
+use crate::methods::Registered;
 use renderer::util::output::StagedFiles;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile};
 use std::path::{Path, PathBuf};
@@ -22,6 +23,8 @@ pub(super) struct Plan<'a> {
     pub(super) cache: PathBuf,
     /// The settings swept, in order.
     pub(super) settings: Vec<Setting>,
+    /// The methods swept (their plot colours).
+    pub(super) methods: &'a [Registered],
 }
 
 impl Plan<'_> {
@@ -152,6 +155,7 @@ pub(super) fn bench_scene(
         .iter()
         .map(|b| plot::Series {
             family: b.family,
+            style: plot::style(plan.methods, b.family),
             points: rows
                 .iter()
                 .filter(|r| r.method == b.family)
@@ -165,6 +169,7 @@ pub(super) fn bench_scene(
     let speedup = equal_error_speedup(&rows);
     let speedup_image = equal_error_speedup_on(&rows, Measure::Image);
     let speedup_penumbra = equal_error_speedup_on(&rows, Measure::Penumbra);
+    let headline = plan.settings.iter().find(|s| s.headline).map(|s| s.method.name());
     Ok(SceneResult {
         stem: stem.to_string(),
         path: path.display().to_string(),
@@ -179,6 +184,7 @@ pub(super) fn bench_scene(
         speedup,
         speedup_image,
         speedup_penumbra,
+        headline,
         skipped,
     })
 }
@@ -197,12 +203,14 @@ fn sweep_scene(plan: &Plan, base: &Baseline) -> Swept {
     let mut rows = Vec::new();
     // Per family: (rmse, label, frame) of the best setting so far.
     let mut best: Vec<(&'static str, f64, String, Frame)> = Vec::new();
-    // edge_table settings whose first run took longer than --max-run-seconds.
-    let mut too_long: Vec<CostOrder> = Vec::new();
+    // (method, cost order) of the settings whose first run took longer than
+    // --max-run-seconds.
+    let mut too_long: Vec<(&str, &[u32])> = Vec::new();
     let mut skipped = Vec::new();
     for s in &plan.settings {
-        if let Some(order) = s.cost
-            && too_long.iter().any(|&t| no_costlier(t, order))
+        let fam = s.method.name();
+        if let Some(order) = &s.cost
+            && too_long.iter().any(|&(f, t)| f == fam && no_costlier(t, order))
         {
             plan.log(format!(
                 "  {:<40} skipped: a cheaper setting took over {} s",
@@ -221,10 +229,10 @@ fn sweep_scene(plan: &Plan, base: &Baseline) -> Swept {
                 continue;
             }
         };
-        if let Some(order) = s.cost
+        if let Some(order) = &s.cost
             && run.prepare[0] + run.render[0] > args.max_run_seconds
         {
-            too_long.push(order);
+            too_long.push((fam, order));
         }
         let row = row(base, s, &run);
         let errors = row.errors;
@@ -232,7 +240,6 @@ fn sweep_scene(plan: &Plan, base: &Baseline) -> Swept {
             "  {:<40} cost {:>8.3} s  RMSE {:.4}  penumbra {:.4}",
             s.label, row.shadow_cost_s, errors.rmse, errors.penumbra_rmse
         ));
-        let fam = s.method.name();
         match best.iter_mut().find(|b| b.0 == fam) {
             // A NaN error (no lit pixel) never counts as the best.
             Some(b) if errors.rmse.is_nan() || errors.rmse >= b.1 => {}
@@ -287,7 +294,8 @@ fn row(base: &Baseline, s: &Setting, run: &Run) -> Row {
         method: s.method.name().to_string(),
         setting: s.label.clone(),
         samples: s.samples,
-        edge_table_default: s.is_edge_table_default,
+        headline: s.headline,
+        reference: s.reference,
         width: base.settings.width,
         height: base.settings.height,
         repeats: run.prepare.len() as u32,

@@ -8,6 +8,8 @@
 //! (`plates`), `slope_bias` (1.0), `slab_thickness` (2.0, `plates` only), `normal_offset`
 //! (0.5), `grazing_cos` (0.5).
 
+mod entry;
+
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
 use crate::fallback::{Located, MapFallback, OnMap};

@@ -38,7 +38,8 @@
 //! | `normal_offset` | float | 0.5 | published: lookups move along the normal by this many pixel footprints times (1 - cos) of the light's axis |
 //! | `grazing_cos` | float | 0.5 | published: receivers whose geometric normal's cosine to the direction of the light's centre is below this are answered by traced rays (counted as `fallbacks_grazing`); 0 turns it off |
 //!
-//! The same list, held to [`EdgeTableTable`] by a test: `docs/scene-keys.md`. Code-only
+//! The same list, held to [`EdgeTableTable`] by a test: `keys.md` (its section of
+//! `docs/scene-keys.md`). Code-only
 //! ([`EdgeTableSwitches`]; the bench and the accuracy example switch them, presets set them):
 //! `mirrored` (build only the masks at sub-pixel offsets up to 1/2 and read the others as
 //! mirror images; off in `paper`; the exact reading never mirrors), and the depth map's
@@ -62,6 +63,7 @@
 //! `mask/` one mask ([`Mask`]: `build.rs` builds it, `classify.rs` reads it exactly,
 //! `query.rs` as published, one function per [`Heightfield`] reading).
 
+mod entry;
 mod exact;
 mod grid;
 mod mask;

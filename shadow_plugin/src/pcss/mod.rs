@@ -358,5 +358,6 @@ impl LightShadowing for Pcss {
     }
 }
 
+mod entry;
 #[cfg(test)]
 mod tests;

@@ -1,0 +1,19 @@
+//! `depth_march` in the registry: its help line, its section of the key reference
+//! (`keys.md`), its bench sweep and its plot colour.
+
+use super::DepthMarchParams;
+use renderer::interface::entry::top_samples;
+use renderer::{MethodEntry, SweepSetting};
+
+impl MethodEntry for DepthMarchParams {
+    const ABOUT: &'static str = "Each shadow ray marched through the same depth map (walls and floors)";
+    const KEYS_DOC: &'static str = include_str!("keys.md");
+    const COLOUR: [u8; 3] = [31, 119, 180];
+    const BENCH_RANK: u32 = 10;
+
+    /// The defaults at the top sample count: the per-ray baseline of the edge tables.
+    fn sweep(quick: bool) -> Vec<SweepSetting> {
+        let n = top_samples(quick);
+        vec![SweepSetting::new(format!("depth_march 256 N={n}"), DepthMarchParams::default(), n)]
+    }
+}
