@@ -7,7 +7,7 @@
 
 use renderer::interface::method::{default_table, parse_boxed};
 use renderer::{MethodEntry, SceneError, ShadowMethod, SweepSetting, TracedParams, Unshadowed};
-use shadow_plugin::{DepthMarchParams, EdgeTableParams, PcssParams};
+use shadow_plugin::{DepthMarchParams, EdgeTableParams, PcssParams, SilhouetteParams};
 use std::path::Path;
 
 /// Parses a method's `[shadows.<name>]` table (`prefix` names it in errors).
@@ -64,6 +64,7 @@ pub const METHODS: &[Registered] = &[
     Registered::of::<EdgeTableParams>(),
     Registered::of::<DepthMarchParams>(),
     Registered::of::<PcssParams>(),
+    Registered::of::<SilhouetteParams>(),
 ];
 
 /// The method of `methods` called `name`.

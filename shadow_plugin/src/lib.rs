@@ -11,6 +11,7 @@ pub mod heightfield;
 pub mod march;
 pub mod pcss;
 pub mod samples;
+pub mod silhouette;
 
 pub use depth_map::{DepthMap, DepthMapParams, LightFrame, MapSwitches};
 pub use depth_march::{DepthMarch, DepthMarchParams};
@@ -19,3 +20,4 @@ pub use edge_table::{
 };
 pub use heightfield::Heightfield;
 pub use pcss::{Pcss, PcssParams};
+pub use silhouette::{Silhouette, SilhouetteParams};

@@ -235,6 +235,14 @@ impl Shaft {
         Some(Shaft { faces, vertices: hull, slack })
     }
 
+    /// The whole hull of the apex and the light, without the cut under the apex: it holds
+    /// every segment from the apex to the light, also those that dip under the point's
+    /// tangent plane (methods that reason about all of them, not only the covered rays).
+    pub fn without_cut(mut self) -> Shaft {
+        self.faces[5].offset = f32::INFINITY;
+        self
+    }
+
     /// The part of the shaft between two planes parallel to the light's: points `x` with
     /// `axis . (x - origin)` (the depth along the light's unit normal `axis`, from its centre
     /// `origin`) in `[lo, hi]`, widened by `slack` plus the rounding of each evaluation.
@@ -302,6 +310,13 @@ impl Scene {
     /// `true` proves every ray the shaft covers unblocked.
     pub fn shaft_clear(&self, shaft: &Shaft) -> bool {
         crate::util::profile::count_shaft();
+        self.shaft_triangles(shaft, |_| false)
+    }
+
+    /// Calls `visit` with the slot of every triangle the shaft test cannot separate from
+    /// `shaft` (a superset of those that meet it), in BVH order, until `visit` returns
+    /// `false`; returns whether every call returned `true` (also when there was none).
+    pub fn shaft_triangles(&self, shaft: &Shaft, mut visit: impl FnMut(usize) -> bool) -> bool {
         let Some(bvh) = &self.bvh else { return true };
         let nodes = &bvh.nodes;
         if nodes.is_empty() {
@@ -309,39 +324,39 @@ impl Scene {
         }
         // A fixed stack: Bvh2 depth is bounded by obvhs's build (max_depth); 64 entries cover
         // any tree a scene of < 2^32 triangles builds here, and a deeper one is answered
-        // "not clear" (trace), never wrongly.
+        // `false` (the caller's conservative answer), never wrongly.
         let mut stack = [0u32; 64];
         let mut top = 0usize;
-        let visit = |index: u32, stack: &mut [u32; 64], top: &mut usize| -> Option<bool> {
+        let mut node_visit = |index: u32, stack: &mut [u32; 64], top: &mut usize| -> bool {
             let node = &nodes[index as usize];
             if shaft.box_outside(node.aabb.min, node.aabb.max) {
-                return None;
+                return true;
             }
             if node.prim_count == 0 {
                 if *top == stack.len() {
-                    return Some(false);
+                    return false;
                 }
                 stack[*top] = node.first_index;
                 *top += 1;
-                return None;
+                return true;
             }
             let first = node.first_index as usize;
-            for tri in &self.triangles[first..first + node.prim_count as usize] {
-                if !shaft.triangle_outside(tri.v0, tri.v1, tri.v2) {
-                    return Some(false);
+            for (k, tri) in self.triangles[first..first + node.prim_count as usize].iter().enumerate() {
+                if !shaft.triangle_outside(tri.v0, tri.v1, tri.v2) && !visit(first + k) {
+                    return false;
                 }
             }
-            None
+            true
         };
-        if let Some(found) = visit(0, &mut stack, &mut top) {
-            return found;
+        if !node_visit(0, &mut stack, &mut top) {
+            return false;
         }
         while top > 0 {
             top -= 1;
             let first = stack[top];
             for index in [first, first + 1] {
-                if let Some(found) = visit(index, &mut stack, &mut top) {
-                    return found;
+                if !node_visit(index, &mut stack, &mut top) {
+                    return false;
                 }
             }
         }

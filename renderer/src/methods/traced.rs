@@ -2,14 +2,11 @@
 //! `none`, the cost floor. Both are configured like every plugin ([`crate::interface::method`]).
 
 use crate::geometry::light::RectLight;
-use crate::geometry::light_sampling::HorizonPart;
-use crate::geometry::ray_origin::offset_origin;
 use crate::geometry::scene::Scene;
-use crate::geometry::shaft;
 use crate::interface::entry::{MethodEntry, SweepSetting, top_samples};
 use crate::interface::method::{KeyError, MethodParams, NoKeys, ShadowMethod};
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
-use crate::util::sampling::{Rng, strata};
+use crate::methods::light_samples::PointSamples;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// No shadows: V = 1 everywhere. The cost floor every method's shadow cost is measured
@@ -204,6 +201,25 @@ impl Traced {
     }
 }
 
+impl Traced {
+    /// The samples of `q` with their shafts tested (when culling), or `Err` with the answer
+    /// when the whole light is proven clear: the one stream `traced` and the methods that
+    /// compare with it sample by sample draw from.
+    pub fn point_samples<'a>(&self, scene: &Scene, q: &'a ShadowQuery) -> Result<PointSamples<'a>, f32> {
+        let light = self.light.expect("prepare() runs before visibility()");
+        let samples = PointSamples::new(scene, light, q, self.params.samples, self.params.shaft_culling)?;
+        let (tests, clear) = samples.shaft_tests();
+        self.shafts.fetch_add(tests as u64, Ordering::Relaxed);
+        self.shafts_clear.fetch_add(clear as u64, Ordering::Relaxed);
+        Ok(samples)
+    }
+
+    /// The prepared light.
+    pub fn light(&self) -> Option<&RectLight> {
+        self.light.as_ref()
+    }
+}
+
 impl LightShadowing for Traced {
     fn name(&self) -> &'static str {
         "traced"
@@ -222,93 +238,22 @@ impl LightShadowing for Traced {
     }
 
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
-        let light = self.light.as_ref().expect("prepare() runs before visibility()");
-        let (nx, ny) = strata(self.params.samples);
-        // Where the horizon cuts the light, the strata are warped onto the part above it
-        // ([`crate::geometry::light_sampling::HorizonWarp`]): every sample counts. The whole light
-        // above, or too thin a part above, keeps the plain grid (and its fallback below).
-        let point = &q.point;
-        let warp = match HorizonPart::new(light, point) {
-            HorizonPart::Clipped(w) => Some(w),
-            HorizonPart::Whole | HorizonPart::Degenerate => None,
+        let samples = match self.point_samples(scene, q) {
+            Ok(samples) => samples,
+            Err(visibility) => return visibility,
         };
-        let clear = if self.params.shaft_culling {
-            let (mask, tests) = match &warp {
-                None => shaft::clear_leaves(scene, light, point, (nx, ny)),
-                // A leaf's samples lie in the image of its strata block: prove the shaft to
-                // that image's bounding rectangle.
-                Some(w) => shaft::clear_leaves_mapped(scene, light, point, (nx, ny), |a, b| {
-                    let (a, b) = w.bounds(a.map(f64::from), b.map(f64::from));
-                    (a.map(|x| x as f32), b.map(|x| x as f32))
-                }),
-            };
-            self.shafts.fetch_add(tests as u64, Ordering::Relaxed);
-            self.shafts_clear.fetch_add(mask.count_ones() as u64, Ordering::Relaxed);
-            mask
-        } else {
-            0
-        };
-        // The origin every ray above the tangent plane starts from (the shafts' apex).
-        let origin = offset_origin(point, point.n_geom);
-        // The whole light proven clear and wholly covered: every counted sample is unblocked,
-        // so the answer is 1 without drawing them. Measured: drawing 1024 samples per such
-        // point cost ~10 us, most of a clear point's time.
-        if clear != 0 && clear == shaft::all_leaves((nx, ny)) && shaft::covers_light(point, origin, light) {
-            return 1.0;
-        }
-        // Per point, not per sample: the covered test's terms with the light's largest point
-        // error (every sample's own bound is at most that: a stricter test, so it still
-        // accepts only rays the shaft holds), and the ray origin on the lit side (the one
-        // `offset_origin` gives every target with n_geom . (target - p) >= 0).
-        let cover = shaft::Cover::new(point, origin, light.max_point_error());
-        let (lx, ly) = shaft::leaves_per_axis((nx, ny));
-        let mut rng = Rng::new(q.seed);
         let (mut above, mut unblocked, mut traced) = (0u32, 0u32, 0u32);
-        for j in 0..ny {
-            // This row's clear leaves, as bits 0..lx; leaf column `x` holds samples
-            // first(x) <= i < first(x + 1) ([`shaft::leaf_bit`], stepped instead of divided).
-            let row_clear =
-                (clear >> (shaft::LEAVES as u32 * (j * ly as u32 / ny))) & ((1 << shaft::LEAVES) - 1);
-            let (mut col, mut next_col) = (0u32, shaft::first_stratum(1, nx, lx));
-            for i in 0..nx {
-                if i == next_col {
-                    col += 1;
-                    next_col = shaft::first_stratum(col + 1, nx, lx);
-                }
-                debug_assert_eq!(row_clear & (1 << col) != 0, clear & shaft::leaf_bit(i, j, (nx, ny)) != 0);
-                let mut a = (i as f32 + rng.next_f32()) / nx as f32;
-                let mut b = (j as f32 + rng.next_f32()) / ny as f32;
-                if let Some(w) = &warp {
-                    let (wa, wb) = w.map(a as f64, b as f64);
-                    (a, b) = (wa as f32, wb as f32);
-                }
-                let target = light.point(a, b);
-                let w = target - point.p;
-                if point.n_shading.dot(w) <= 0.0 {
-                    // Below the horizon: not part of the light this point sees. (A warped
-                    // sample is above it in f64; f32 rounding may still drop one at the cut.)
-                    continue;
-                }
-                above += 1;
-                let height = point.n_geom.dot(w);
-                // `max_point_error` bounds points with a, b in [0, 1] (a warped sample off the
-                // unit square by a rounding is traced instead).
-                if row_clear & (1 << col) != 0
-                    && (warp.is_none() || ((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)))
-                    && cover.covers(height, w)
-                {
-                    unblocked += 1; // inside a clear shaft: proven unblocked
-                    continue;
-                }
-                traced += 1;
-                // `offset_origin(point, target - p)`: the lit side's origin unless the target is
-                // under the geometric tangent plane.
-                let from = if height < 0.0 { offset_origin(point, w) } else { origin };
-                if !scene.segment_occluded_from(from, target, light.point_error(a, b), light.normal) {
-                    unblocked += 1;
-                }
+        samples.for_each(|s| {
+            above += 1;
+            if s.proven {
+                unblocked += 1; // inside a clear shaft: proven unblocked
+                return;
             }
-        }
+            traced += 1;
+            if !samples.occluded(scene, &s) {
+                unblocked += 1;
+            }
+        });
         // Relaxed counters: one add per query, not per ray (measured: no visible cost).
         self.rays.fetch_add(traced as u64, Ordering::Relaxed);
         self.occluded.fetch_add((above - unblocked) as u64, Ordering::Relaxed);

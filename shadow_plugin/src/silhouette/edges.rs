@@ -1,0 +1,245 @@
+//! The per-light edge set: vertices welded at bit-identical positions, every edge with its
+//! incident opaque triangles, and the potential silhouette edges for this light, reached
+//! from the triangles that own them.
+//!
+//! An edge changes a segment's depth complexity only where the segment's plane has the
+//! edge's faces on one side (a silhouette as seen along it). Seen from a light point `s`, the
+//! two faces of a manifold edge are on one side iff `s` is on the same side of both face
+//! planes; if every point of the (slightly grown) light is on opposite sides of them, no
+//! shadow ray ever crosses the edge as a silhouette and it is dropped (coplanar neighbours
+//! always are). Boundary and non-manifold edges are always kept.
+//!
+//! Triangles the counting cannot answer for are flagged and left out of it (the edges they
+//! share become boundary edges of the rest): alpha-tested ones (holes under a texture), ones
+//! near or across the light's plane (shadow rays stop short of the light by a fraction of
+//! their length, so whether they count depends on the point), and zero-area ones (their
+//! weight is 0, but an f32 ray test may still graze them). A sample whose ray may meet one
+//! is traced.
+
+use glam::{DVec3, Vec3};
+use renderer::geometry::material::AlphaMode;
+use renderer::{RectLight, Scene};
+use std::collections::HashMap;
+
+/// No potential silhouette edge of this triangle's (or not owned by it).
+pub const NO_EDGE: u32 = u32::MAX;
+
+/// Triangle flags: what a point whose shaft meets the triangle must do.
+pub const ALPHA: u8 = 1;
+pub const NEAR_LIGHT: u8 = 2;
+pub const ZERO_AREA: u8 = 4;
+
+/// One edge between welded vertices `a < b`, with the third vertices of its incident opaque
+/// triangles at `thirds[first..first + count]`.
+#[derive(Debug, Clone, Copy)]
+pub struct Edge {
+    pub a: u32,
+    pub b: u32,
+    pub first: u32,
+    pub count: u32,
+}
+
+/// The edge set of one light (see the module doc).
+#[derive(Debug, Default)]
+pub struct EdgeSet {
+    /// Welded vertex positions.
+    pub vertices: Vec<Vec3>,
+    /// The potential silhouette edges.
+    pub edges: Vec<Edge>,
+    /// Third vertices of the edges' incident triangles.
+    pub thirds: Vec<u32>,
+    /// Per triangle slot (BVH order): the potential silhouette edges it owns (each edge is
+    /// owned by its first incident opaque triangle, so that it is met once per point: a
+    /// shaft that meets an edge meets its owner).
+    pub owned: Vec<[u32; 3]>,
+    /// Per triangle slot: the triangle's welded vertices (for zero-area triangles' bands).
+    pub corners: Vec<[u32; 3]>,
+    /// Per triangle slot: [`ALPHA`], [`NEAR_LIGHT`], [`ZERO_AREA`].
+    pub flags: Vec<u8>,
+    /// Counts for the run report.
+    pub stats: EdgeStats,
+}
+
+#[derive(Debug, Default, Clone, Copy)]
+pub struct EdgeStats {
+    pub edges: u64,
+    pub potential: u64,
+    pub boundary: u64,
+    pub non_manifold: u64,
+    pub alpha_triangles: u64,
+    pub near_light_triangles: u64,
+    pub zero_area_triangles: u64,
+}
+
+impl EdgeSet {
+    /// Bytes held (the run report's memory).
+    pub fn bytes(&self) -> u64 {
+        (self.vertices.len() * 12
+            + self.edges.len() * 16
+            + self.thirds.len() * 4
+            + self.owned.len() * 12
+            + self.corners.len() * 12
+            + self.flags.len()) as u64
+    }
+
+    /// The edge set of `scene`'s triangles for `light`.
+    pub fn build(scene: &Scene, light: &RectLight) -> EdgeSet {
+        let n = scene.triangles.len();
+        let mut set = EdgeSet { flags: vec![0; n], owned: vec![[NO_EDGE; 3]; n], ..EdgeSet::default() };
+        set.weld(scene);
+        let near = near_light_band(scene, light);
+        for (slot, tri) in scene.triangles.iter().enumerate() {
+            let v = [Vec3::from(tri.v0), Vec3::from(tri.v1), Vec3::from(tri.v2)];
+            let material = &scene.materials[scene.shading[slot].material as usize];
+            if !matches!(material.alpha, AlphaMode::Opaque) {
+                set.flags[slot] |= ALPHA;
+            }
+            if v.iter().any(|x| (light.normal.as_dvec3()).dot(x.as_dvec3() - light.center.as_dvec3()) < near)
+            {
+                set.flags[slot] |= NEAR_LIGHT;
+            }
+            let [c0, c1, c2] = set.corners[slot];
+            if c0 == c1 || c1 == c2 || c0 == c2 || zero_area(v) {
+                set.flags[slot] |= ZERO_AREA;
+            }
+        }
+        set.stats.alpha_triangles = set.flags.iter().filter(|&&f| f & ALPHA != 0).count() as u64;
+        set.stats.near_light_triangles = set.flags.iter().filter(|&&f| f & NEAR_LIGHT != 0).count() as u64;
+        set.stats.zero_area_triangles = set.flags.iter().filter(|&&f| f & ZERO_AREA != 0).count() as u64;
+        set.link_edges(light);
+        set
+    }
+
+    /// Welds vertices at bit-identical positions (-0.0 and 0.0 are one).
+    fn weld(&mut self, scene: &Scene) {
+        let mut index: HashMap<[u32; 3], u32> = HashMap::with_capacity(scene.triangles.len());
+        self.corners = Vec::with_capacity(scene.triangles.len());
+        for tri in &scene.triangles {
+            let mut c = [0u32; 3];
+            for (k, v) in [tri.v0, tri.v1, tri.v2].into_iter().enumerate() {
+                let v = Vec3::from(v) + Vec3::ZERO; // -0.0 + 0.0 = 0.0
+                let key = [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
+                let next = self.vertices.len() as u32;
+                c[k] = *index.entry(key).or_insert_with(|| next);
+                if c[k] == next {
+                    self.vertices.push(v);
+                }
+            }
+            self.corners.push(c);
+        }
+    }
+
+    /// Every edge of the opaque, non-degenerate triangles with its incident triangles; keeps
+    /// the potential silhouette edges and gives each to its owner.
+    fn link_edges(&mut self, light: &RectLight) {
+        // (a, b, third, slot) for every triangle side, sorted by edge.
+        let mut sides: Vec<(u32, u32, u32, u32)> = Vec::with_capacity(3 * self.corners.len());
+        for (slot, c) in self.corners.iter().enumerate() {
+            if self.flags[slot] != 0 {
+                continue;
+            }
+            for k in 0..3 {
+                let (a, b, third) = (c[k], c[(k + 1) % 3], c[(k + 2) % 3]);
+                sides.push((a.min(b), a.max(b), third, slot as u32));
+            }
+        }
+        sides.sort_unstable();
+        let corners = light_corners_grown(light);
+        let mut i = 0;
+        while i < sides.len() {
+            let (a, b) = (sides[i].0, sides[i].1);
+            let mut j = i;
+            while j < sides.len() && (sides[j].0, sides[j].1) == (a, b) {
+                j += 1;
+            }
+            self.stats.edges += 1;
+            let count = j - i;
+            let keep = match count {
+                1 => {
+                    self.stats.boundary += 1;
+                    true
+                }
+                2 => self.silhouette_somewhere(a, b, sides[i].2, sides[i + 1].2, &corners),
+                _ => {
+                    self.stats.non_manifold += 1;
+                    true
+                }
+            };
+            if keep {
+                let owner = sides[i..j].iter().map(|s| s.3).min().expect("an edge has a side");
+                let id = self.edges.len() as u32;
+                self.edges.push(Edge { a, b, first: self.thirds.len() as u32, count: count as u32 });
+                self.thirds.extend(sides[i..j].iter().map(|s| s.2));
+                let slot = &mut self.owned[owner as usize];
+                let free = slot.iter().position(|&e| e == NO_EDGE).expect("a triangle owns at most 3 edges");
+                slot[free] = id;
+            }
+            i = j;
+        }
+        self.stats.potential = self.edges.len() as u64;
+    }
+
+    /// Whether some point of the light sees the edge (a, b) with both faces (third vertices
+    /// `c0`, `c1`) on one side: false only where every grown light corner is strictly on
+    /// opposite sides of the two face planes (by more than the f64 rounding), which by
+    /// linearity holds over the whole rectangle.
+    fn silhouette_somewhere(&self, a: u32, b: u32, c0: u32, c1: u32, corners: &[DVec3; 4]) -> bool {
+        let v = |i: u32| self.vertices[i as usize].as_dvec3();
+        let (a, b, c0, c1) = (v(a), v(b), v(c0), v(c1));
+        let n0 = (b - a).cross(c0 - a);
+        let n1 = (b - a).cross(c1 - a);
+        let side = |n: DVec3, s: DVec3| {
+            let d = n.dot(s - a);
+            // Rounding of d: a few ulps of its terms' magnitudes.
+            let bound = 1e-12 * n.abs().dot((s - a).abs());
+            if d > bound {
+                1
+            } else if d < -bound {
+                -1
+            } else {
+                0
+            }
+        };
+        let s0 = corners.map(|s| side(n0, s));
+        let s1 = corners.map(|s| side(n1, s));
+        let opposite = |x: i32, y: i32| s0.iter().all(|&s| s == x) && s1.iter().all(|&s| s == y);
+        !(opposite(1, -1) || opposite(-1, 1))
+    }
+}
+
+/// The light's corners grown by 1% of its size: samples are drawn in f32 and may stray a
+/// rounding outside the rectangle.
+fn light_corners_grown(light: &RectLight) -> [DVec3; 4] {
+    let (c, u, v) = (light.center.as_dvec3(), light.u.as_dvec3(), light.v.as_dvec3());
+    let (hu, hv) = (0.51 * u, 0.51 * v);
+    [c - hu - hv, c + hu - hv, c + hu + hv, c - hu + hv]
+}
+
+/// Height over the light's plane under which a triangle counts as near the light: shadow
+/// rays stop `SHADOW_EPSILON` of their length short of the (offset) light point, so a
+/// triangle within that fraction of the farthest point's height, or across the plane, may
+/// or may not be met depending on the point. Twice that, plus the coordinates' rounding.
+fn near_light_band(scene: &Scene, light: &RectLight) -> f64 {
+    let n = light.normal.as_dvec3();
+    let c = light.center.as_dvec3();
+    let mut far = 0.0f64;
+    let (lo, hi) = (scene.bounds_min.as_dvec3(), scene.bounds_max.as_dvec3());
+    for i in 0..8 {
+        let x = DVec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        );
+        far = far.max(n.dot(x - c).abs());
+    }
+    let scale = scene.coordinate_bound() as f64;
+    2.0 * renderer::geometry::ray_origin::SHADOW_EPSILON as f64 * far + 1e-5 * scale
+}
+
+/// Whether the triangle has exactly zero area: its cross product is zero in f64 from the
+/// f32 corners (differences of f32 values are exact in f64 at the spreads scenes have, and
+/// products of two of them are exact).
+fn zero_area(v: [Vec3; 3]) -> bool {
+    let (a, b, c) = (v[0].as_dvec3(), v[1].as_dvec3(), v[2].as_dvec3());
+    (b - a).cross(c - a) == DVec3::ZERO
+}

@@ -1,0 +1,24 @@
+//! `silhouette` in the registry: its help line, its section of the key reference (`keys.md`),
+//! its bench sweep and its plot colour.
+
+use super::SilhouetteParams;
+use renderer::{MethodEntry, SweepSetting};
+
+impl MethodEntry for SilhouetteParams {
+    const ABOUT: &'static str = "Exact soft shadows from the occluders' silhouette edges: traced's samples counted, one ray per point";
+    const KEYS_DOC: &'static str = include_str!("keys.md");
+    const COLOUR: [u8; 3] = [148, 103, 189];
+    /// One parameter (N): a curve, like `traced`'s.
+    const PLOT_LINE: bool = true;
+    const BENCH_RANK: u32 = 40;
+
+    /// Over sample counts: its error is `traced`'s at the same N (the same samples, settled
+    /// exactly), so its curve lies on `traced`'s error axis at its own cost.
+    fn sweep(quick: bool) -> Vec<SweepSetting> {
+        let counts: &[u32] = if quick { &[16, 64] } else { &[64, 256, 1024, 4096] };
+        counts
+            .iter()
+            .map(|&n| SweepSetting::new(format!("silhouette N={n}"), SilhouetteParams::new(n), n))
+            .collect()
+    }
+}

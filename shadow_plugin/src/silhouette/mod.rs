@@ -1,0 +1,232 @@
+//! `silhouette`: exact soft shadows from the occluders' silhouette edges (soft shadow
+//! volumes for ray tracing, Laine et al. 2005), counted in `traced`'s own light samples.
+//!
+//! For a shading point (its ray origin `o`) and a light sample `s`, let D(s) be the number of
+//! triangles the shadow ray o -> s crosses: `s` is visible iff D(s) = 0. D changes only
+//! where `s` crosses the projection from `o` of an edge, by the edge's weight (the incident
+//! faces' orientations as seen from `o`: 0 for an edge inside a smooth surface, +-2 for a
+//! fold, +-1 for a boundary). So from a reference point `r` on the light, each sample's
+//! count relative to r is a sum over the few edges whose projection separates r from it.
+//! One any-hit ray to the sample with the lowest count then settles the constant: unblocked,
+//! the visible samples are those with that count; blocked, the point is in umbra. Cost: the
+//! point's silhouette edges times the samples (plain per-sample arithmetic), plus one ray,
+//! whatever N.
+//!
+//! Exact, or traced: a sample within rounding of a projected edge, under the geometric
+//! tangent plane, outside the point's shaft, or whose ray may meet a triangle left out of the
+//! counting (alpha-tested, near the light's plane, zero-area) is traced with `traced`'s own
+//! ray; a point whose edge weights the f64 filter cannot sign is traced whole. The answer equals `traced`'s with the same
+//! samples (tests/silhouette.rs counts disagreements over every settled sample).
+//!
+//! Scene file: `method = "silhouette"`; `[shadows.silhouette]` takes no keys (the sample
+//! count is `[shadows].samples`, as for `traced`).
+
+mod counting;
+mod edges;
+mod entry;
+mod projection;
+mod query;
+
+use edges::EdgeSet;
+use renderer::interface::method::NoKeys;
+use renderer::methods::light_samples::{LightSample, PointSamples};
+use renderer::{
+    KeyError, LightShadowing, MethodParams, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod,
+    ShadowQuery, Traced, TracedParams,
+};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Parameters of `silhouette`: `[shadows.silhouette]` (no keys).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SilhouetteParams {
+    /// Light samples per shading point: `traced`'s strata, jitter and horizon warp.
+    pub samples: u32,
+}
+
+impl SilhouetteParams {
+    pub const NAME: &'static str = "silhouette";
+
+    pub const fn new(samples: u32) -> Self {
+        Self { samples }
+    }
+}
+
+impl Default for SilhouetteParams {
+    fn default() -> Self {
+        Self::new(256)
+    }
+}
+
+impl ShadowMethod for SilhouetteParams {
+    fn name(&self) -> &'static str {
+        Self::NAME
+    }
+    fn max_samples(&self) -> u32 {
+        renderer::MAX_TRACED_SAMPLES
+    }
+    fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
+        Box::new(Silhouette::new(SilhouetteParams { samples }))
+    }
+}
+
+impl MethodParams for SilhouetteParams {
+    const NAME: &'static str = Self::NAME;
+    type Table = NoKeys;
+    fn table(&self) -> NoKeys {
+        NoKeys {}
+    }
+    fn with_table(&self, _: NoKeys) -> Self {
+        *self
+    }
+    fn validate(&self) -> Result<(), KeyError> {
+        Ok(())
+    }
+}
+
+/// Why a whole point was traced.
+#[derive(Debug, Clone, Copy)]
+enum Fallback {
+    Unsigned,
+    NoShaft,
+    Inconsistent,
+}
+
+/// The plugin: the light's edge set and `traced` (for the samples and the rays).
+#[derive(Debug)]
+pub struct Silhouette {
+    traced: Traced,
+    edges: EdgeSet,
+    counters: Counters,
+}
+
+#[derive(Debug, Default)]
+struct Counters {
+    points: AtomicU64,
+    rays: AtomicU64,
+    samples_uncertain: AtomicU64,
+    edges_tested: AtomicU64,
+    edges_active: AtomicU64,
+    points_umbra: AtomicU64,
+    fallback_unsigned: AtomicU64,
+    fallback_no_shaft: AtomicU64,
+    fallback_inconsistent: AtomicU64,
+}
+
+impl Silhouette {
+    pub fn new(params: SilhouetteParams) -> Self {
+        Self {
+            traced: Traced::new(TracedParams::new(params.samples)),
+            edges: EdgeSet::default(),
+            counters: Counters::default(),
+        }
+    }
+
+    fn light(&self) -> &RectLight {
+        self.traced.light().expect("prepare() runs before visibility()")
+    }
+
+    /// Every sample traced as `traced` traces it (the whole-point fallback).
+    fn trace_all(&self, scene: &Scene, samples: &PointSamples, why: Fallback) -> f32 {
+        let c = &self.counters;
+        match why {
+            Fallback::Unsigned => &c.fallback_unsigned,
+            Fallback::NoShaft => &c.fallback_no_shaft,
+            Fallback::Inconsistent => &c.fallback_inconsistent,
+        }
+        .fetch_add(1, Ordering::Relaxed);
+        let (mut above, mut unblocked, mut rays) = (0u32, 0u32, 0u64);
+        samples.for_each(|s| {
+            above += 1;
+            if s.proven {
+                unblocked += 1;
+                return;
+            }
+            rays += 1;
+            if !samples.occluded(scene, &s) {
+                unblocked += 1;
+            }
+        });
+        c.rays.fetch_add(rays, Ordering::Relaxed);
+        if above == 0 { 1.0 } else { unblocked as f32 / above as f32 }
+    }
+}
+
+impl Silhouette {
+    /// Every sample of `q` above its horizon with the method's verdict: `Some(lit)` where
+    /// the counting settles it, `None` where it is traced (the sample, or the whole point).
+    /// For differential tests: allocates.
+    pub fn verdicts(&self, scene: &Scene, q: &ShadowQuery) -> Vec<(LightSample, Option<bool>)> {
+        let samples = match self.traced.point_samples(scene, q) {
+            Ok(samples) => samples,
+            Err(_) => return Vec::new(), // every sample proven lit by shafts, none counted
+        };
+        query::verdicts(self, scene, q, &samples).unwrap_or_else(|_| {
+            let mut all = Vec::new();
+            samples.for_each(|x| all.push((x, None)));
+            all
+        })
+    }
+
+    /// `traced`'s verdict on one sample of `q` (its own ray).
+    pub fn traced_lit(&self, scene: &Scene, q: &ShadowQuery, sample: &LightSample) -> bool {
+        match self.traced.point_samples(scene, q) {
+            Ok(samples) => sample.proven || !samples.occluded(scene, sample),
+            Err(_) => true,
+        }
+    }
+}
+
+impl LightShadowing for Silhouette {
+    fn name(&self) -> &'static str {
+        SilhouetteParams::NAME
+    }
+
+    fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
+        self.traced.prepare(ctx).map_err(|e| ShadowError { method: SilhouetteParams::NAME, ..e })?;
+        self.edges = EdgeSet::build(ctx.scene, ctx.light);
+        Ok(())
+    }
+
+    fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
+        self.counters.points.fetch_add(1, Ordering::Relaxed);
+        let samples = match self.traced.point_samples(scene, q) {
+            Ok(samples) => samples,
+            Err(visibility) => return visibility,
+        };
+        match query::count(self, scene, q, &samples) {
+            Ok(v) => v,
+            Err(why) => self.trace_all(scene, &samples, why),
+        }
+    }
+
+    fn counters(&self) -> Vec<(&'static str, u64)> {
+        let c = &self.counters;
+        let load = |a: &AtomicU64| a.load(Ordering::Relaxed);
+        let s = &self.edges.stats;
+        let mut out = vec![
+            ("silhouette_points", load(&c.points)),
+            ("shadow_rays", load(&c.rays)),
+            ("samples_uncertain", load(&c.samples_uncertain)),
+            ("edges_tested", load(&c.edges_tested)),
+            ("edges_active", load(&c.edges_active)),
+            ("points_umbra", load(&c.points_umbra)),
+            ("points_fallback_unsigned", load(&c.fallback_unsigned)),
+            ("points_fallback_no_shaft", load(&c.fallback_no_shaft)),
+            ("points_fallback_inconsistent", load(&c.fallback_inconsistent)),
+            ("edges", s.edges),
+            ("edges_potential", s.potential),
+            ("edges_boundary", s.boundary),
+            ("edges_non_manifold", s.non_manifold),
+            ("triangles_alpha", s.alpha_triangles),
+            ("triangles_near_light", s.near_light_triangles),
+            ("triangles_zero_area", s.zero_area_triangles),
+        ];
+        // `traced`'s shaft counters (its rays are never traced through it).
+        out.extend(self.traced.counters().into_iter().filter(|(k, _)| k.starts_with("shafts")));
+        out
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        self.edges.bytes()
+    }
+}

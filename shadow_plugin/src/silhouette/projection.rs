@@ -1,0 +1,247 @@
+//! Edges and flagged triangles projected from the ray origin onto the light's plane.
+//!
+//! Light coordinates: a sample is (a, b) with `s = centre + (a - 1/2) u + (b - 1/2) v`. An
+//! edge's projection from the origin `o` is computed in homogeneous coordinates (a w, b w, w),
+//! affine in the 3D point, so the edge is clipped to the light's rectangle (grown by
+//! `MARGIN`) before any division; each vertex projects by a function of itself and `o` alone,
+//! so edges sharing a vertex share its projection bit for bit.
+
+use super::counting::ActiveEdge;
+use glam::{DVec2, DVec3, Vec3};
+
+/// Light-space margin (in units of the light's sides) an edge is kept to: samples lie in
+/// [0, 1]^2 up to a rounding, and the reference point inside.
+pub(super) const MARGIN: f64 = 0.02;
+
+/// The band, in ulps of the largest coordinate involved, within which a sample's shadow ray
+/// may pass an edge and `traced`'s f32 ray-triangle test may go either way: such samples are
+/// traced. Möller-Trumbore's rounding near an edge is a few ulps of the coordinates; 64 is
+/// ample (every sample the differential test settles agrees).
+pub(super) const BAND_ULPS: f64 = 64.0;
+
+/// A flagged triangle's projection over the light: a convex polygon in light coordinates
+/// (the triangle clipped to the slab between o's plane and the light's, and to the grown
+/// light), as edge lines `l0 + la a + lb b >= -margin` inside, normalised to distance.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Region {
+    pub(super) lines: [[f64; 3]; MAX_POLYGON],
+    pub(super) count: usize,
+    pub(super) margin: f64,
+}
+
+/// A triangle clipped by six planes has at most nine sides.
+pub(super) const MAX_POLYGON: usize = 9;
+
+/// A clipping constraint on a homogeneous point (o's height, a tiny height): inside >= 0.
+type Constraint = fn(&[f64; 3], f64, f64) -> f64;
+
+impl Region {
+    pub(super) fn new(frame: &Frame, v: [DVec3; 3]) -> Option<Region> {
+        // Homogeneous clipping (Sutherland-Hodgman) against w > 0, w <= height (the light's
+        // plane) and the grown rectangle; all affine in the 3D point.
+        let mut poly = [[0.0f64; 3]; MAX_POLYGON];
+        let mut n = 3;
+        for (k, x) in v.iter().enumerate() {
+            poly[k] = frame.project(*x);
+        }
+        let h = frame.height;
+        let tiny = 1e-9 * h;
+        let constraints: [Constraint; 6] = [
+            |p, _, tiny| p[2] - tiny,
+            |p, h, _| h - p[2],
+            |p, _, _| p[0] + MARGIN * p[2],
+            |p, _, _| (1.0 + MARGIN) * p[2] - p[0],
+            |p, _, _| p[1] + MARGIN * p[2],
+            |p, _, _| (1.0 + MARGIN) * p[2] - p[1],
+        ];
+        for g in constraints {
+            let mut out = [[0.0f64; 3]; MAX_POLYGON];
+            let mut m = 0;
+            for k in 0..n {
+                let (a, b) = (poly[k], poly[(k + 1) % n]);
+                let (ga, gb) = (g(&a, h, tiny), g(&b, h, tiny));
+                if ga >= 0.0 {
+                    out[m] = a;
+                    m += 1;
+                }
+                if (ga >= 0.0) != (gb >= 0.0) && m < out.len() {
+                    let t = ga / (ga - gb);
+                    out[m] = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])];
+                    m += 1;
+                }
+            }
+            if m == 0 {
+                return None;
+            }
+            (poly, n) = (out, m);
+        }
+        let mut pts = [DVec2::ZERO; MAX_POLYGON];
+        for (pt, p) in pts.iter_mut().zip(&poly[..n]) {
+            *pt = DVec2::new(p[0] / p[2], p[1] / p[2]);
+        }
+        let lambda_min = poly[..n].iter().map(|p| p[2] / h).fold(f64::INFINITY, f64::min);
+        // A 3D displacement d at depth lambda moves the projection by d / lambda: the band of
+        // the triangle's coordinates, in light units.
+        let magnitude = v.iter().fold(frame.magnitude, |m, x| m.max(x.abs().max_element()));
+        let delta = BAND_ULPS * f32::EPSILON as f64 * 0.5 * magnitude;
+        let side = frame.u.length().min(frame.v.length());
+        let margin = delta / (lambda_min * side) + 1e-9;
+        // Orientation from the signed area; a degenerate polygon keeps its lines (the margin
+        // still holds the samples near it).
+        let area: f64 = (0..n).map(|k| pts[k].perp_dot(pts[(k + 1) % n])).sum();
+        let mut region = Region { lines: [[0.0; 3]; MAX_POLYGON], count: 0, margin };
+        for k in 0..n {
+            let (a, b) = (pts[k], pts[(k + 1) % n]);
+            let d = b - a;
+            let len = d.length();
+            if len == 0.0 {
+                continue;
+            }
+            // Inside (left of a -> b for a counter-clockwise polygon): d x (x - a) >= 0.
+            let sign = if area >= 0.0 { 1.0 } else { -1.0 };
+            let (la, lb) = (-d.y * sign / len, d.x * sign / len);
+            region.lines[region.count] = [-(la * a.x + lb * a.y), la, lb];
+            region.count += 1;
+        }
+        Some(region)
+    }
+
+    /// Whether the sample at `p` may see its ray meet the triangle.
+    #[inline]
+    pub(super) fn holds(&self, p: DVec2) -> bool {
+        self.lines[..self.count].iter().all(|l| l[0] + l[1] * p.x + l[2] * p.y >= -self.margin)
+    }
+}
+
+/// The light's frame in f64, seen from the origin `o`.
+pub(super) struct Frame {
+    pub(super) o: DVec3,
+    pub(super) centre: DVec3,
+    pub(super) u: DVec3,
+    pub(super) v: DVec3,
+    /// u / |u|^2, v / |v|^2: light coordinates of a point in the plane.
+    pub(super) u_dual: DVec3,
+    pub(super) v_dual: DVec3,
+    pub(super) normal: DVec3,
+    /// o's height over the light's plane (> 0).
+    pub(super) height: f64,
+    /// The largest distance from o to a (grown) light corner.
+    pub(super) reach: f64,
+    /// The largest coordinate magnitude of o and the light's corners.
+    pub(super) magnitude: f64,
+}
+
+impl Frame {
+    pub(super) fn new(light: &renderer::RectLight, origin: Vec3) -> Option<Frame> {
+        let (centre, u, v) = (light.center.as_dvec3(), light.u.as_dvec3(), light.v.as_dvec3());
+        let normal = u.cross(v).normalize();
+        let o = origin.as_dvec3();
+        let height = normal.dot(o - centre);
+        if !(height > 0.0 && height.is_finite()) {
+            return None;
+        }
+        let g = 0.5 + MARGIN;
+        let corners =
+            [centre - g * u - g * v, centre + g * u - g * v, centre + g * u + g * v, centre - g * u + g * v];
+        let reach = corners.iter().map(|c| (*c - o).length()).fold(0.0, f64::max);
+        let magnitude = corners.iter().fold(o.abs().max_element(), |m, c| m.max(c.abs().max_element()));
+        Some(Frame {
+            o,
+            centre,
+            u,
+            v,
+            u_dual: u / u.length_squared(),
+            v_dual: v / v.length_squared(),
+            normal,
+            height,
+            reach,
+            magnitude,
+        })
+    }
+
+    /// `x`'s projection from o in homogeneous light coordinates (a w, b w, w), w = o's
+    /// height over the light less x's: affine in x.
+    pub(super) fn project(&self, x: DVec3) -> [f64; 3] {
+        let w = self.height - self.normal.dot(x - self.centre);
+        let h = (self.o - self.centre) * w + (x - self.o) * self.height;
+        [h.dot(self.u_dual) + 0.5 * w, h.dot(self.v_dual) + 0.5 * w, w]
+    }
+}
+
+/// Sign of orient3d(o, e0, e1, c) = ((e0 - o) x (e1 - o)) . (c - o), or `None` where the f64
+/// rounding could flip it (Shewchuk's static bound on the permanent, doubled).
+pub(super) fn orient_sign(n: DVec3, n_abs: DVec3, c: DVec3, o: DVec3) -> Option<i32> {
+    let d = c - o;
+    let det = n.dot(d);
+    let bound = 2e-15 * n_abs.dot(d.abs());
+    if det > bound {
+        Some(1)
+    } else if det < -bound {
+        Some(-1)
+    } else {
+        None
+    }
+}
+
+/// The clipped projection of edge (e0, e1), or `None` where nothing of it lies over the grown
+/// light between o's plane and the light's.
+pub(super) fn clip(frame: &Frame, e0: DVec3, e1: DVec3) -> Option<(DVec2, DVec2)> {
+    let (h0, h1) = (frame.project(e0), frame.project(e1));
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    // Each constraint g >= 0, g affine along the edge.
+    let g = |h: [f64; 3]| {
+        let w = h[2];
+        [w, h[0] + MARGIN * w, (1.0 + MARGIN) * w - h[0], h[1] + MARGIN * w, (1.0 + MARGIN) * w - h[1]]
+    };
+    let (g0, g1) = (g(h0), g(h1));
+    for k in 0..5 {
+        let (a, b) = (g0[k], g1[k]);
+        if a < 0.0 && b < 0.0 {
+            return None;
+        }
+        if a < 0.0 {
+            t0 = t0.max(a / (a - b));
+        } else if b < 0.0 {
+            t1 = t1.min(a / (a - b));
+        }
+    }
+    if t0 >= t1 {
+        return None;
+    }
+    let at = |t: f64| -> Option<DVec2> {
+        // Unclipped ends keep their own projection (shared bit for bit with their other edges).
+        let h = if t == 0.0 {
+            h0
+        } else if t == 1.0 {
+            h1
+        } else {
+            [h0[0] + t * (h1[0] - h0[0]), h0[1] + t * (h1[1] - h0[1]), h0[2] + t * (h1[2] - h0[2])]
+        };
+        (h[2] > 1e-12 * frame.height).then(|| DVec2::new(h[0] / h[2], h[1] / h[2]))
+    };
+    Some((at(t0)?, at(t1)?))
+}
+
+/// Adds edge (e0, e1) (`n` = (e0 - o) x (e1 - o)) to `active` if its projection meets the
+/// grown light.
+pub(super) fn push(active: &mut Vec<ActiveEdge>, frame: &Frame, e0: DVec3, e1: DVec3, n: DVec3, weight: i32) {
+    {
+        let Some((p0, p1)) = clip(frame, e0, e1) else { return };
+        let sa = n.dot(frame.u);
+        let sb = n.dot(frame.v);
+        let s0 = n.dot(frame.centre - frame.o) - 0.5 * (sa + sb);
+        let magnitude = frame.magnitude.max(e0.abs().max_element()).max(e1.abs().max_element());
+        let delta = BAND_ULPS * f32::EPSILON as f64 * 0.5 * magnitude;
+        let band = delta * frame.reach * (e1 - e0).length();
+        // Scaled to O(1) for f32 (tiny and huge scenes alike); the band grows by the f32
+        // evaluation's rounding (three products and sums of coefficients rounded once).
+        let scale = s0.abs().max(sa.abs()).max(sb.abs());
+        if !(scale > 0.0 && scale.is_finite()) {
+            return;
+        }
+        let side = [(s0 / scale) as f32, (sa / scale) as f32, (sb / scale) as f32];
+        let rounding = 8.0 * f32::EPSILON as f64 * (side[0].abs() + side[1].abs() + side[2].abs()) as f64;
+        let band = (band / scale).max(rounding) as f32 * 1.001;
+        active.push(ActiveEdge { side, band, p0, p1, weight });
+    }
+}

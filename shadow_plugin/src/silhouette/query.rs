@@ -1,0 +1,246 @@
+//! One point's visibility from its silhouette edges (see the module doc of `silhouette`):
+//! the shaft's candidates, their weights and projections, the counts, one ray.
+
+use super::counting::{ActiveEdge, Counts, count_edge, count_edge_on_grid};
+use super::edges::NO_EDGE;
+use super::projection::{Frame, Region, orient_sign, push};
+use super::{Fallback, Silhouette};
+use glam::{DVec2, DVec3};
+use renderer::geometry::shaft::{self, Shaft};
+use renderer::methods::light_samples::{LightSample, PointSamples};
+use renderer::{Scene, ShadowQuery};
+use std::cell::RefCell;
+use std::sync::atomic::Ordering;
+
+/// Where the reference point may go, tried in order: one clear of every edge's band.
+const REFERENCES: [[f64; 2]; 4] = [[0.5, 0.5], [0.3125, 0.6875], [0.6875, 0.3125], [0.40625, 0.15625]];
+
+#[derive(Default)]
+struct Scratch {
+    candidates: Vec<u32>,
+    /// Flagged triangles in the shaft (left out of the counting).
+    excluded: Vec<u32>,
+    active: Vec<ActiveEdge>,
+    /// The excluded triangles' projections over the light, grown by their bands.
+    regions: Vec<Region>,
+    samples: Vec<LightSample>,
+    rel: Vec<i32>,
+    uncertain: Vec<bool>,
+    /// The samples' light coordinates on the strata grid (NaN where none), the counts and
+    /// band marks there.
+    a: Vec<f32>,
+    b: Vec<f32>,
+    grid_rel: Vec<i32>,
+    near: Vec<u8>,
+}
+
+thread_local! {
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
+}
+
+impl Scratch {
+    /// The shaft's candidates: owned potential silhouette edges, and flagged triangles.
+    fn gather(&mut self, plugin: &Silhouette, scene: &Scene, shaft: &Shaft) -> Result<(), Fallback> {
+        self.candidates.clear();
+        self.excluded.clear();
+        let set = &plugin.edges;
+        let complete = scene.shaft_triangles(shaft, |slot| {
+            if set.flags[slot] != 0 {
+                self.excluded.push(slot as u32);
+            }
+            self.candidates.extend(set.owned[slot].iter().filter(|&&e| e != NO_EDGE));
+            true
+        });
+        // A tree too deep for the traversal's stack: not every triangle was seen.
+        if complete { Ok(()) } else { Err(Fallback::NoShaft) }
+    }
+
+    /// The candidates active for this point (weight != 0 and over the light), and the bands
+    /// of zero-area triangles' sides.
+    fn activate(&mut self, plugin: &Silhouette, frame: &Frame) -> Result<(), Fallback> {
+        self.active.clear();
+        let set = &plugin.edges;
+        let vertex = |i: u32| set.vertices[i as usize].as_dvec3();
+        for &e in &self.candidates {
+            let edge = set.edges[e as usize];
+            let (e0, e1) = (vertex(edge.a), vertex(edge.b));
+            let (d0, d1) = (e0 - frame.o, e1 - frame.o);
+            let n = d0.cross(d1);
+            let n_abs = DVec3::new(
+                (d0.y * d1.z).abs() + (d0.z * d1.y).abs(),
+                (d0.z * d1.x).abs() + (d0.x * d1.z).abs(),
+                (d0.x * d1.y).abs() + (d0.y * d1.x).abs(),
+            );
+            let mut weight = 0;
+            for &c in &set.thirds[edge.first as usize..(edge.first + edge.count) as usize] {
+                weight += orient_sign(n, n_abs, vertex(c), frame.o).ok_or(Fallback::Unsigned)?;
+            }
+            if weight != 0 {
+                push(&mut self.active, frame, e0, e1, n, weight);
+            }
+        }
+        self.regions.clear();
+        for &slot in &self.excluded {
+            let c = set.corners[slot as usize];
+            if let Some(region) = Region::new(frame, [vertex(c[0]), vertex(c[1]), vertex(c[2])]) {
+                self.regions.push(region);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Fills `s` with the point's samples, which of them must be traced, and the others' counts
+/// relative to a reference point.
+fn relative_counts(
+    plugin: &Silhouette,
+    scene: &Scene,
+    q: &ShadowQuery,
+    samples: &PointSamples,
+    s: &mut Scratch,
+) -> Result<(), Fallback> {
+    let light = plugin.light();
+    let frame = Frame::new(light, samples.origin).ok_or(Fallback::NoShaft)?;
+    // The whole hull: the path from the reference point to a sample may pass over parts of
+    // the light under the tangent plane, and every edge projected there counts.
+    let shaft = Shaft::new(light, &q.point, scene.coordinate_bound()).ok_or(Fallback::NoShaft)?.without_cut();
+    let cover = shaft::Cover::new(&q.point, samples.origin, light.max_point_error());
+    s.gather(plugin, scene, &shaft)?;
+    s.activate(plugin, &frame)?;
+    let c = &plugin.counters;
+    c.edges_tested.fetch_add(s.candidates.len() as u64, Ordering::Relaxed);
+    c.edges_active.fetch_add(s.active.len() as u64, Ordering::Relaxed);
+    // The samples; those the counting cannot answer for are traced.
+    s.samples.clear();
+    s.uncertain.clear();
+    let regions = &s.regions;
+    samples.for_each(|x| {
+        let inside = (0.0..=1.0).contains(&x.a) && (0.0..=1.0).contains(&x.b);
+        let p = DVec2::new(x.a as f64, x.b as f64);
+        s.uncertain.push(
+            !x.proven
+                && (x.height < 0.0
+                    || !inside
+                    || !cover.covers(x.height, x.target - q.point.p)
+                    || regions.iter().any(|r| r.holds(p))),
+        );
+        s.samples.push(x);
+    });
+    s.rel.clear();
+    s.rel.resize(s.samples.len(), 0);
+    if s.active.is_empty() {
+        return Ok(());
+    }
+    let r = REFERENCES
+        .iter()
+        .map(|&[a, b]| DVec2::new(a, b))
+        .find(|r| s.active.iter().all(|e| e.side_at(r.x as f32, r.y as f32).abs() > 4.0 * e.band))
+        .ok_or(Fallback::Unsigned)?;
+    // The counting runs over the strata grid (a sample at its stratum, absent ones NaN: no
+    // test holds for them), so that an edge visits only the rows and columns it can reach.
+    let (nx, ny) = samples.strata();
+    let cells = (nx * ny) as usize;
+    for v in [&mut s.a, &mut s.b] {
+        v.clear();
+        v.resize(cells, f32::NAN);
+    }
+    s.grid_rel.clear();
+    s.grid_rel.resize(cells, 0);
+    s.near.clear();
+    s.near.resize(cells, 0);
+    for x in &s.samples {
+        s.a[x.stratum as usize] = x.a;
+        s.b[x.stratum as usize] = x.b;
+    }
+    let grid = (!samples.warped() && nx >= 8 && ny >= 8).then_some((nx as usize, ny as usize));
+    for e in &s.active {
+        let counts = Counts { a: &s.a, b: &s.b, rel: &mut s.grid_rel, near: &mut s.near };
+        match grid {
+            Some(grid) => count_edge_on_grid(e, r, grid, counts),
+            None => count_edge(e, r, 0..cells, counts),
+        }
+    }
+    for (k, x) in s.samples.iter().enumerate() {
+        s.rel[k] = s.grid_rel[x.stratum as usize];
+        s.uncertain[k] |= s.near[x.stratum as usize] != 0;
+    }
+    Ok(())
+}
+
+/// The count of the lit samples (D = 0), or `None` in umbra: the lowest count is lit iff
+/// its ray is unblocked (none is traced where a shaft proved a sample lit). Also `None` when
+/// every sample is traced.
+fn lit_count(
+    scene: &Scene,
+    samples: &PointSamples,
+    s: &Scratch,
+    rays: &mut u64,
+) -> Result<Option<i32>, Fallback> {
+    let counted = || (0..s.samples.len()).filter(|&k| !s.uncertain[k]);
+    let Some(m) = counted().min_by_key(|&k| s.rel[k]) else { return Ok(None) };
+    match counted().find(|&k| s.samples[k].proven) {
+        // A sample proven lit has D = 0: its count is the lowest.
+        Some(k) if s.rel[k] == s.rel[m] => Ok(Some(s.rel[k])),
+        // Never seen; a count that contradicts a proof is traced rather than trusted.
+        Some(_) => Err(Fallback::Inconsistent),
+        None => {
+            *rays += 1;
+            Ok((!samples.occluded(scene, &s.samples[m])).then_some(s.rel[m]))
+        }
+    }
+}
+
+/// The visibility of `q` from its silhouette edges, or why the point must be traced whole.
+pub(super) fn count(
+    plugin: &Silhouette,
+    scene: &Scene,
+    q: &ShadowQuery,
+    samples: &PointSamples,
+) -> Result<f32, Fallback> {
+    SCRATCH.with(|cell| {
+        let s = &mut *cell.borrow_mut();
+        relative_counts(plugin, scene, q, samples, s)?;
+        if s.samples.is_empty() {
+            return Ok(1.0);
+        }
+        let c = &plugin.counters;
+        let mut rays = 0u64;
+        let lit = lit_count(scene, samples, s, &mut rays)?;
+        let mut visible = 0u32;
+        let mut uncertain = 0u64;
+        for (k, x) in s.samples.iter().enumerate() {
+            if s.uncertain[k] {
+                uncertain += 1;
+                rays += 1;
+                visible += !samples.occluded(scene, x) as u32;
+            } else {
+                visible += (Some(s.rel[k]) == lit) as u32;
+            }
+        }
+        if lit.is_none() && uncertain < s.samples.len() as u64 {
+            c.points_umbra.fetch_add(1, Ordering::Relaxed);
+        }
+        c.rays.fetch_add(rays, Ordering::Relaxed);
+        c.samples_uncertain.fetch_add(uncertain, Ordering::Relaxed);
+        Ok(visible as f32 / s.samples.len() as f32)
+    })
+}
+
+/// Every sample of `q` with the method's verdict: `Some(lit)` where the counting settles it,
+/// `None` where it traces it; `Err` where the whole point is traced. For the differential
+/// tests (allocates).
+pub(super) fn verdicts(
+    plugin: &Silhouette,
+    scene: &Scene,
+    q: &ShadowQuery,
+    samples: &PointSamples,
+) -> Result<Vec<(LightSample, Option<bool>)>, Fallback> {
+    SCRATCH.with(|cell| {
+        let s = &mut *cell.borrow_mut();
+        relative_counts(plugin, scene, q, samples, s)?;
+        let lit = lit_count(scene, samples, s, &mut 0)?;
+        Ok((0..s.samples.len())
+            .map(|k| (s.samples[k], (!s.uncertain[k]).then(|| Some(s.rel[k]) == lit)))
+            .collect())
+    })
+}
