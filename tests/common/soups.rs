@@ -76,8 +76,8 @@ pub fn soups_and_terraces(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
                 tris.push([t[1], t[0], d]);
             }
         }
-        let model = soup(&dir, &format!("soup{k}"), &tris);
-        scenes.push(scene_file(&dir, &format!("soup{k}"), &model, [0.2, 0.6, 1.2][k % 3]));
+        let model = soup(dir, &format!("soup{k}"), &tris);
+        scenes.push(scene_file(dir, &format!("soup{k}"), &model, [0.2, 0.6, 1.2][k % 3]));
     }
     for k in 0..3 {
         // A terraced heightfield: an n x n grid of columns with random heights, each a closed
@@ -101,8 +101,8 @@ pub fn soups_and_terraces(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
                 }
             }
         }
-        let model = soup(&dir, &format!("terrace{k}"), &tris);
-        scenes.push(scene_file(&dir, &format!("terrace{k}"), &model, [0.3, 0.8, 1.5][k]));
+        let model = soup(dir, &format!("terrace{k}"), &tris);
+        scenes.push(scene_file(dir, &format!("terrace{k}"), &model, [0.3, 0.8, 1.5][k]));
     }
     scenes
 }
