@@ -6,12 +6,11 @@
 
 mod common;
 
-use common::gltf_writer::{GltfBuilder, TempDir};
+use common::gltf_writer::TempDir;
+use common::soups;
 use penumbra::{RenderArgs, run_render};
 use renderer::geometry::ray_origin::offset_origin;
-use renderer::util::sampling::Rng;
 use renderer::{LightShadowing, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod, ShadowQuery};
-use serde_json::json;
 use shadow_plugin::{EdgeTable, EdgeTableParams};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -169,103 +168,13 @@ fn shared_and_bench_scenes_agree_with_the_bvh() {
     assert!(rays > 1_000_000, "only {rays} decided rays checked");
 }
 
-/// Writes a glTF of `tris` (each three points) with one opaque material, or alpha-masked
-/// ones every `alpha_every`-th triangle (never covers).
-fn soup(dir: &TempDir, name: &str, tris: &[[[f32; 3]; 3]]) -> PathBuf {
-    let mut g = GltfBuilder::default();
-    let positions: Vec<[f32; 3]> = tris.iter().flatten().copied().collect();
-    let pos = g.positions(&positions);
-    let material = g.material(
-        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1.0]}, "doubleSided": true}),
-    );
-    let mesh = g.mesh(vec![json!({"attributes": {"POSITION": pos}, "material": material})]);
-    let node = g.node(json!({"mesh": mesh}));
-    let scene = g.scene(&[node]);
-    g.set_default_scene(scene);
-    g.write(&dir.path, name)
-}
-
-/// A scene file around a model: a floor, a square light above, a camera looking down.
-fn scene_file(dir: &TempDir, name: &str, model: &Path, light_size: f64) -> PathBuf {
-    let text = format!(
-        r#"[[model]]
-path = "{}"
-[[quad]]
-center = [0.0, 0.0, 0.0]
-u = [6.0, 0.0, 0.0]
-v = [0.0, 0.0, -6.0]
-color = [0.7, 0.7, 0.7]
-[camera]
-position = [0.3, 3.2, 2.4]
-look_at = [0.0, 0.2, 0.0]
-up = [0.0, 1.0, 0.0]
-yfov_deg = 50.0
-[[light]]
-center = [0.2, 2.5, 0.1]
-u = [{light_size}, 0.0, 0.0]
-v = [0.0, 0.0, {light_size}]
-radiance = [5.0, 5.0, 5.0]
-"#,
-        model.display().to_string().replace('\\', "/")
-    );
-    let path = dir.join(&format!("{name}.toml"));
-    std::fs::write(&path, text).unwrap();
-    path
-}
-
 /// Random triangle soups (sizes from a millimetre to a metre, any orientation, some sharing
 /// edges) and terraced heightfields (closed steps: shared edges, covers, walls), each under a
 /// light of its own size: every decided ray agrees with the BVH.
 #[test]
 fn random_soups_and_heightfields_agree_with_the_bvh() {
     let dir = TempDir::new("exact-soups");
-    let mut scenes = Vec::new();
-    let mut rng = Rng::new(17);
-    let mut r = move || rng.next_f32();
-    for k in 0..6 {
-        let mut tris = Vec::new();
-        let scale = [0.003f32, 0.05, 0.3, 1.0, 0.02, 0.2][k];
-        for _ in 0..400 {
-            let c = [r() * 2.0 - 1.0, 0.05 + r() * 1.5, r() * 2.0 - 1.0];
-            let mut t = [[0.0f32; 3]; 3];
-            for v in &mut t {
-                *v = [c[0] + (r() - 0.5) * scale, c[1] + (r() - 0.5) * scale, c[2] + (r() - 0.5) * scale];
-            }
-            tris.push(t);
-            // Every fourth triangle gets a neighbour sharing an edge (a fold or a flat pair).
-            if r() < 0.25 {
-                let d = [c[0] + (r() - 0.5) * scale, c[1] + (r() - 0.5) * scale, c[2] + (r() - 0.5) * scale];
-                tris.push([t[1], t[0], d]);
-            }
-        }
-        let model = soup(&dir, &format!("soup{k}"), &tris);
-        scenes.push(scene_file(&dir, &format!("soup{k}"), &model, [0.2, 0.6, 1.2][k % 3]));
-    }
-    for k in 0..3 {
-        // A terraced heightfield: an n x n grid of columns with random heights, each a closed
-        // box (top and four sides), sharing edges with nothing: covers on the tops.
-        let n = 8 + 4 * k;
-        let cell = 1.6 / n as f32;
-        let mut tris = Vec::new();
-        for i in 0..n {
-            for j in 0..n {
-                let h = 0.05 + r() * 0.6 * (k as f32 + 1.0) / 3.0;
-                let (x0, z0) = (-0.8 + i as f32 * cell, -0.8 + j as f32 * cell);
-                let (x1, z1) = (x0 + cell * 0.8, z0 + cell * 0.8);
-                let top = [[x0, h, z0], [x1, h, z0], [x1, h, z1], [x0, h, z1]];
-                tris.push([top[0], top[1], top[2]]);
-                tris.push([top[0], top[2], top[3]]);
-                for s in 0..4 {
-                    let (a, b) = (top[s], top[(s + 1) % 4]);
-                    let (a0, b0) = ([a[0], 0.0, a[2]], [b[0], 0.0, b[2]]);
-                    tris.push([a, b, b0]);
-                    tris.push([a, b0, a0]);
-                }
-            }
-        }
-        let model = soup(&dir, &format!("terrace{k}"), &tris);
-        scenes.push(scene_file(&dir, &format!("terrace{k}"), &model, [0.3, 0.8, 1.5][k]));
-    }
+    let scenes = soups::soups_and_terraces(&dir, 17);
     let rays = check_all(&scenes, 64, 48, 256);
     assert!(rays > 300_000, "only {rays} decided rays checked");
 }

@@ -228,9 +228,14 @@ mod tests {
         assert_eq!(colour("pcss"), [44, 160, 44]);
         assert_eq!(colour("none"), [148, 103, 189]);
         assert_eq!(colour("unregistered"), [148, 103, 189]);
-        let lines: Vec<&str> =
-            methods.iter().filter(|m| style(methods, m.name).line).map(|m| m.name).collect();
-        assert_eq!(lines, ["traced"], "only traced is a curve");
+        // Curves: the families of one parameter (N), as each method's entry says.
+        for m in methods {
+            assert_eq!(style(methods, m.name).line, m.plot_line, "{}", m.name);
+        }
+        assert!(style(methods, "traced").line);
+        for family in ["edge_table", "depth_march", "pcss"] {
+            assert!(!style(methods, family).line, "{family} is points, not a curve");
+        }
     }
 
     #[test]

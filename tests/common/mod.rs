@@ -1,1 +1,2 @@
 pub mod gltf_writer;
+pub mod soups;

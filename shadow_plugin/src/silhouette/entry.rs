@@ -7,7 +7,7 @@ use renderer::{MethodEntry, SweepSetting};
 impl MethodEntry for SilhouetteParams {
     const ABOUT: &'static str = "Exact soft shadows from the occluders' silhouette edges: traced's samples counted, one ray per point";
     const KEYS_DOC: &'static str = include_str!("keys.md");
-    const COLOUR: [u8; 3] = [148, 103, 189];
+    const COLOUR: [u8; 3] = [23, 190, 207];
     /// One parameter (N): a curve, like `traced`'s.
     const PLOT_LINE: bool = true;
     const BENCH_RANK: u32 = 40;

@@ -167,11 +167,11 @@ impl Silhouette {
         })
     }
 
-    /// `traced`'s verdict on one sample of `q` (its own ray).
-    pub fn traced_lit(&self, scene: &Scene, q: &ShadowQuery, sample: &LightSample) -> bool {
+    /// `traced`'s verdicts on `samples` of `q` (its own rays): whether each is lit.
+    pub fn traced_lit(&self, scene: &Scene, q: &ShadowQuery, samples: &[LightSample]) -> Vec<bool> {
         match self.traced.point_samples(scene, q) {
-            Ok(samples) => sample.proven || !samples.occluded(scene, sample),
-            Err(_) => true,
+            Ok(stream) => samples.iter().map(|s| s.proven || !stream.occluded(scene, s)).collect(),
+            Err(_) => vec![true; samples.len()],
         }
     }
 }

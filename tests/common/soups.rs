@@ -1,0 +1,184 @@
+//! Random triangle soups and terraced heightfields as glTF scene files, for the differential
+//! tests of the exact methods against the BVH.
+
+#![allow(dead_code)] // each test binary uses a different subset
+
+use super::gltf_writer::{GltfBuilder, TempDir};
+use renderer::util::sampling::Rng;
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// Writes a glTF of `tris` (each three points) with one opaque material, or alpha-masked
+/// ones every `alpha_every`-th triangle (never covers).
+pub fn soup(dir: &TempDir, name: &str, tris: &[[[f32; 3]; 3]]) -> PathBuf {
+    let mut g = GltfBuilder::default();
+    let positions: Vec<[f32; 3]> = tris.iter().flatten().copied().collect();
+    let pos = g.positions(&positions);
+    let material = g.material(
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1.0]}, "doubleSided": true}),
+    );
+    let mesh = g.mesh(vec![json!({"attributes": {"POSITION": pos}, "material": material})]);
+    let node = g.node(json!({"mesh": mesh}));
+    let scene = g.scene(&[node]);
+    g.set_default_scene(scene);
+    g.write(&dir.path, name)
+}
+
+/// A scene file around a model: a floor, a square light above, a camera looking down.
+pub fn scene_file(dir: &TempDir, name: &str, model: &Path, light_size: f64) -> PathBuf {
+    let text = format!(
+        r#"[[model]]
+path = "{}"
+[[quad]]
+center = [0.0, 0.0, 0.0]
+u = [6.0, 0.0, 0.0]
+v = [0.0, 0.0, -6.0]
+color = [0.7, 0.7, 0.7]
+[camera]
+position = [0.3, 3.2, 2.4]
+look_at = [0.0, 0.2, 0.0]
+up = [0.0, 1.0, 0.0]
+yfov_deg = 50.0
+[[light]]
+center = [0.2, 2.5, 0.1]
+u = [{light_size}, 0.0, 0.0]
+v = [0.0, 0.0, {light_size}]
+radiance = [5.0, 5.0, 5.0]
+"#,
+        model.display().to_string().replace('\\', "/")
+    );
+    let path = dir.join(&format!("{name}.toml"));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// Six random soups (sizes from a millimetre to a metre, any orientation, a quarter of the
+/// triangles with a neighbour sharing an edge: folds and flat pairs) and three terraced
+/// heightfields (closed boxes: shared edges, covers, walls), each under a light of its own
+/// size, from `seed`.
+pub fn soups_and_terraces(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
+    let mut scenes = Vec::new();
+    let mut rng = Rng::new(seed);
+    let mut r = move || rng.next_f32();
+    for k in 0..6 {
+        let mut tris = Vec::new();
+        let scale = [0.003f32, 0.05, 0.3, 1.0, 0.02, 0.2][k];
+        for _ in 0..400 {
+            let c = [r() * 2.0 - 1.0, 0.05 + r() * 1.5, r() * 2.0 - 1.0];
+            let mut t = [[0.0f32; 3]; 3];
+            for v in &mut t {
+                *v = [c[0] + (r() - 0.5) * scale, c[1] + (r() - 0.5) * scale, c[2] + (r() - 0.5) * scale];
+            }
+            tris.push(t);
+            // Every fourth triangle gets a neighbour sharing an edge (a fold or a flat pair).
+            if r() < 0.25 {
+                let d = [c[0] + (r() - 0.5) * scale, c[1] + (r() - 0.5) * scale, c[2] + (r() - 0.5) * scale];
+                tris.push([t[1], t[0], d]);
+            }
+        }
+        let model = soup(dir, &format!("soup{k}"), &tris);
+        scenes.push(scene_file(dir, &format!("soup{k}"), &model, [0.2, 0.6, 1.2][k % 3]));
+    }
+    for k in 0..3 {
+        // A terraced heightfield: an n x n grid of columns with random heights, each a closed
+        // box (top and four sides), sharing edges with nothing: covers on the tops.
+        let n = 8 + 4 * k;
+        let cell = 1.6 / n as f32;
+        let mut tris = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let h = 0.05 + r() * 0.6 * (k as f32 + 1.0) / 3.0;
+                let (x0, z0) = (-0.8 + i as f32 * cell, -0.8 + j as f32 * cell);
+                let (x1, z1) = (x0 + cell * 0.8, z0 + cell * 0.8);
+                let top = [[x0, h, z0], [x1, h, z0], [x1, h, z1], [x0, h, z1]];
+                tris.push([top[0], top[1], top[2]]);
+                tris.push([top[0], top[2], top[3]]);
+                for s in 0..4 {
+                    let (a, b) = (top[s], top[(s + 1) % 4]);
+                    let (a0, b0) = ([a[0], 0.0, a[2]], [b[0], 0.0, b[2]]);
+                    tris.push([a, b, b0]);
+                    tris.push([a, b0, a0]);
+                }
+            }
+        }
+        let model = soup(dir, &format!("terrace{k}"), &tris);
+        scenes.push(scene_file(dir, &format!("terrace{k}"), &model, [0.3, 0.8, 1.5][k]));
+    }
+    scenes
+}
+
+/// Harder soups for the edge-counting methods, from `seed`: duplicated triangles (some with
+/// the winding reversed), non-manifold fans (three or four triangles on one edge),
+/// T-junctions (strips of small triangles whose corners lie on a larger triangle's edge) and
+/// closed boxes crossing each other, each under a light of its own size.
+pub fn stress_soups(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
+    let mut rng = Rng::new(seed);
+    let mut r = move || rng.next_f32();
+    let mut scenes = Vec::new();
+    for k in 0..4 {
+        let scale = [0.05f32, 0.3, 0.6, 0.15][k];
+        let mut tris: Vec<[[f32; 3]; 3]> = Vec::new();
+        for _ in 0..150 {
+            let c = [r() * 1.6 - 0.8, 0.1 + r() * 1.2, r() * 1.6 - 0.8];
+            let jitter = |r: &mut dyn FnMut() -> f32| {
+                [c[0] + (r() - 0.5) * scale, c[1] + (r() - 0.5) * scale, c[2] + (r() - 0.5) * scale]
+            };
+            let (a, b) = (jitter(&mut r), jitter(&mut r));
+            match k {
+                // Duplicates: the same triangle twice, or once each way round.
+                0 => {
+                    let t = [a, b, jitter(&mut r)];
+                    tris.push(t);
+                    tris.push(if r() < 0.5 { t } else { [t[1], t[0], t[2]] });
+                }
+                // Non-manifold fans: three or four triangles on edge a b.
+                1 => {
+                    for _ in 0..3 + (r() < 0.5) as usize {
+                        tris.push([a, b, jitter(&mut r)]);
+                    }
+                }
+                // T-junctions: a triangle a b c, and a strip of triangles on its edge a b
+                // whose corners split that edge (not welded to a or b's edge).
+                2 => {
+                    let c2 = jitter(&mut r);
+                    tris.push([a, b, c2]);
+                    let d = jitter(&mut r);
+                    let splits = 2 + (r() * 3.0) as usize;
+                    let at = |t: f32| {
+                        [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])]
+                    };
+                    for s in 0..splits {
+                        let (t0, t1) = (s as f32 / splits as f32, (s + 1) as f32 / splits as f32);
+                        tris.push([at(t1), at(t0), d]);
+                    }
+                }
+                // Closed boxes, crossing each other.
+                _ => {
+                    let h = 0.5 * scale;
+                    let v = |x: f32, y: f32, z: f32| [c[0] + x * h, c[1] + y * h, c[2] + z * h];
+                    let corners = [
+                        v(-1.0, -1.0, -1.0),
+                        v(1.0, -1.0, -1.0),
+                        v(1.0, 1.0, -1.0),
+                        v(-1.0, 1.0, -1.0),
+                        v(-1.0, -1.0, 1.0),
+                        v(1.0, -1.0, 1.0),
+                        v(1.0, 1.0, 1.0),
+                        v(-1.0, 1.0, 1.0),
+                    ];
+                    for q in
+                        [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [2, 3, 7, 6], [1, 2, 6, 5], [0, 4, 7, 3]]
+                    {
+                        let [p0, p1, p2, p3] = q.map(|i| corners[i]);
+                        tris.push([p0, p1, p2]);
+                        tris.push([p0, p2, p3]);
+                    }
+                }
+            }
+        }
+        let name = ["duplicates", "fans", "t_junctions", "boxes"][k];
+        let model = soup(dir, name, &tris);
+        scenes.push(scene_file(dir, name, &model, [0.3, 0.8, 1.2, 0.5][k]));
+    }
+    scenes
+}
