@@ -6,9 +6,9 @@
 
 mod common;
 
+use common::checked;
 use common::gltf_writer::TempDir;
 use common::soups;
-use penumbra::{RenderArgs, run_render};
 use renderer::geometry::ray_origin::offset_origin;
 use renderer::{LightShadowing, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod, ShadowQuery};
 use shadow_plugin::{EdgeTable, EdgeTableParams};
@@ -98,26 +98,13 @@ impl ShadowMethod for CheckedMethod {
 
 /// (clear rays checked, blocked rays checked, disagreements, answers differing).
 fn check(scene: &Path, width: u32, height: u32, samples: u32) -> [u64; 4] {
-    let dir = std::env::temp_dir().join(format!("penumbra-exact-{}", std::process::id()));
-    let stem = scene.file_stem().unwrap().to_string_lossy().to_string();
-    let out = dir.join(format!("{stem}.png"));
-    let args = RenderArgs {
-        scene: Some(scene.to_path_buf()),
-        samples: Some(samples),
-        width: Some(width),
-        height: Some(height),
-        out: Some(out.clone()),
-        quiet: true,
-        method: Some(Arc::new(CheckedMethod(EdgeTableParams::default()))),
-        ..Default::default()
-    };
-    let outcome = run_render(&args).unwrap_or_else(|e| panic!("{}: {e}", scene.display()));
-    for suffix in ["png", "exr", "json"] {
-        let _ = std::fs::remove_file(out.with_extension(suffix));
-    }
-    let c = &outcome.report.counters;
-    let get = |k: &str| *c.get(k).unwrap_or_else(|| panic!("{k} missing from {c:?}"));
-    let got = [get("checked_clear"), get("checked_blocked"), get("checked_wrong"), get("answers_differ")];
+    let got = checked::counters(
+        scene,
+        (width, height, samples),
+        Arc::new(CheckedMethod(EdgeTableParams::default())),
+        "exact",
+        ["checked_clear", "checked_blocked", "checked_wrong", "answers_differ"],
+    );
     eprintln!(
         "{}: {} clear, {} blocked checked; {} wrong; {} answers differ",
         scene.display(),

@@ -5,9 +5,9 @@
 
 mod common;
 
+use common::checked;
 use common::gltf_writer::TempDir;
 use common::soups;
-use penumbra::{RenderArgs, run_render};
 use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery};
 use shadow_plugin::{Silhouette, SilhouetteParams};
 use std::path::{Path, PathBuf};
@@ -91,26 +91,13 @@ impl ShadowMethod for CheckedMethod {
 /// (settled samples checked, samples traced by the method, disagreements, answers differing
 /// from tracing every sample).
 fn check(scene: &Path, width: u32, height: u32, samples: u32) -> [u64; 4] {
-    let dir = std::env::temp_dir().join(format!("penumbra-silhouette-{}", std::process::id()));
-    let stem = scene.file_stem().unwrap().to_string_lossy().to_string();
-    let out = dir.join(format!("{stem}.png"));
-    let args = RenderArgs {
-        scene: Some(scene.to_path_buf()),
-        samples: Some(samples),
-        width: Some(width),
-        height: Some(height),
-        out: Some(out.clone()),
-        quiet: true,
-        method: Some(Arc::new(CheckedMethod)),
-        ..Default::default()
-    };
-    let outcome = run_render(&args).unwrap_or_else(|e| panic!("{}: {e}", scene.display()));
-    for suffix in ["png", "exr", "json"] {
-        let _ = std::fs::remove_file(out.with_extension(suffix));
-    }
-    let c = &outcome.report.counters;
-    let get = |k: &str| *c.get(k).unwrap_or_else(|| panic!("{k} missing from {c:?}"));
-    let got = [get("checked_settled"), get("checked_traced"), get("checked_wrong"), get("answers_differ")];
+    let got = checked::counters(
+        scene,
+        (width, height, samples),
+        Arc::new(CheckedMethod),
+        "silhouette",
+        ["checked_settled", "checked_traced", "checked_wrong", "answers_differ"],
+    );
     eprintln!(
         "{}: {} settled, {} traced by the method; {} wrong; {} answers differ",
         scene.display(),

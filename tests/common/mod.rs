@@ -1,2 +1,3 @@
+pub mod checked;
 pub mod gltf_writer;
 pub mod soups;

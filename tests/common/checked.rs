@@ -1,0 +1,39 @@
+//! Renders a scene through the CLI's render path with a wrapping method that checks each
+//! query (the differential tests of the exact methods), and reads its counters.
+
+#![allow(dead_code)] // each test binary uses a different subset
+
+use penumbra::{RenderArgs, run_render};
+use renderer::ShadowMethod;
+use std::path::Path;
+use std::sync::Arc;
+
+/// The run report's counters `keys` after rendering `scene` at `width` x `height` with
+/// `samples` through `method`; the image files are removed (`tag` names their folder).
+pub fn counters<const K: usize>(
+    scene: &Path,
+    (width, height, samples): (u32, u32, u32),
+    method: Arc<dyn ShadowMethod>,
+    tag: &str,
+    keys: [&str; K],
+) -> [u64; K] {
+    let dir = std::env::temp_dir().join(format!("penumbra-{tag}-{}", std::process::id()));
+    let stem = scene.file_stem().unwrap().to_string_lossy().to_string();
+    let out = dir.join(format!("{stem}.png"));
+    let args = RenderArgs {
+        scene: Some(scene.to_path_buf()),
+        samples: Some(samples),
+        width: Some(width),
+        height: Some(height),
+        out: Some(out.clone()),
+        quiet: true,
+        method: Some(method),
+        ..Default::default()
+    };
+    let outcome = run_render(&args).unwrap_or_else(|e| panic!("{}: {e}", scene.display()));
+    for suffix in ["png", "exr", "json"] {
+        let _ = std::fs::remove_file(out.with_extension(suffix));
+    }
+    let c = &outcome.report.counters;
+    keys.map(|k| *c.get(k).unwrap_or_else(|| panic!("{k} missing from {c:?}")))
+}
