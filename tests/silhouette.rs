@@ -115,13 +115,7 @@ fn root() -> PathBuf {
 
 /// Sums the checks over scenes and asserts none disagrees; returns the samples settled.
 fn check_all(scenes: &[PathBuf], width: u32, height: u32, samples: u32) -> u64 {
-    let mut total = [0u64; 4];
-    for s in scenes {
-        let got = check(s, width, height, samples);
-        for k in 0..4 {
-            total[k] += got[k];
-        }
-    }
+    let total = checked::summed(scenes, |s| check(s, width, height, samples));
     eprintln!("total: {} settled, {} traced by the method; {} wrong", total[0], total[1], total[2]);
     assert_eq!(total[2], 0, "samples the counting settled that the BVH disagrees with");
     assert_eq!(total[3], 0, "answers differing from tracing the same samples");

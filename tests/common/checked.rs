@@ -37,3 +37,13 @@ pub fn counters<const K: usize>(
     let c = &outcome.report.counters;
     keys.map(|k| *c.get(k).unwrap_or_else(|| panic!("{k} missing from {c:?}")))
 }
+
+/// `check`'s counters summed over `scenes`.
+pub fn summed<const K: usize>(scenes: &[std::path::PathBuf], check: impl Fn(&Path) -> [u64; K]) -> [u64; K] {
+    scenes.iter().map(|s| check(s)).fold([0; K], |mut total, got| {
+        for (t, g) in total.iter_mut().zip(got) {
+            *t += g;
+        }
+        total
+    })
+}
