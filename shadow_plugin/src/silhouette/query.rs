@@ -5,9 +5,11 @@ use super::counting::{ActiveEdge, Counts, count_edge, count_edge_on_grid};
 use super::edges::NO_EDGE;
 use super::projection::{Frame, Region, orient_sign, push};
 use super::{Fallback, Silhouette};
-use glam::{DVec2, DVec3};
+use glam::{DVec2, DVec3, Vec3};
 use renderer::geometry::shaft::{self, Shaft};
 use renderer::methods::light_samples::{LightSample, PointSamples};
+use renderer::geometry::point::ShadingPoint;
+use renderer::geometry::ray_origin::offset_origin;
 use renderer::{Scene, ShadowQuery};
 use std::cell::RefCell;
 use std::sync::atomic::Ordering;
@@ -90,44 +92,97 @@ impl Scratch {
     }
 }
 
-/// Fills `s` with the point's samples, which of them must be traced, and the others' counts
-/// relative to a reference point.
+/// The two origins a point's rays start from: above its geometric tangent plane (every
+/// sample over that plane), and below it (the samples under it: the light seen past a
+/// smoothed normal). Each side is counted on its own, from its own origin, with its own ray.
+#[derive(Clone, Copy)]
+struct Side {
+    /// The point as seen from this side: `n_geom` toward the side's origin.
+    point: ShadingPoint,
+    origin: Vec3,
+    below: bool,
+}
+
+impl Side {
+    fn both(q: &ShadowQuery, above: Vec3) -> [Side; 2] {
+        let mut flipped = q.point;
+        flipped.n_geom = -flipped.n_geom;
+        flipped.n_shading = -flipped.n_shading;
+        let below = offset_origin(&flipped, flipped.n_geom);
+        [Side { point: q.point, origin: above, below: false }, Side { point: flipped, origin: below, below: true }]
+    }
+}
+
+/// Fills `s` with the point's samples, which of them must be traced, the others' counts
+/// relative to a reference point, and each side's count of the lit samples (`None`: umbra,
+/// or nothing counted there).
 fn relative_counts(
     plugin: &Silhouette,
     scene: &Scene,
     q: &ShadowQuery,
     samples: &PointSamples,
     s: &mut Scratch,
+    rays: &mut u64,
+) -> Result<[Option<i32>; 2], Fallback> {
+    s.samples.clear();
+    s.uncertain.clear();
+    samples.for_each(|x| {
+        let inside = (0.0..=1.0).contains(&x.a) && (0.0..=1.0).contains(&x.b);
+        s.uncertain.push(!x.proven && !inside);
+        s.samples.push(x);
+    });
+    s.rel.clear();
+    s.rel.resize(s.samples.len(), 0);
+    let mut lit = [None; 2];
+    for side in Side::both(q, samples.origin) {
+        if !s.samples.iter().any(|x| (x.height < 0.0) == side.below) {
+            continue;
+        }
+        match side_counts(plugin, scene, &side, samples, s) {
+            Ok(()) => lit[side.below as usize] = lit_count(scene, samples, s, side.below, rays)?,
+            // The side below has no shaft (its origin too near the light's plane, or behind
+            // it): its samples are traced.
+            Err(Fallback::NoShaft) if side.below => {
+                for (u, x) in s.uncertain.iter_mut().zip(&s.samples) {
+                    *u |= x.height < 0.0;
+                }
+            }
+            Err(why) => return Err(why),
+        }
+    }
+    Ok(lit)
+}
+
+/// The counts of one side's samples (see [`Side`]), and which of them must be traced.
+fn side_counts(
+    plugin: &Silhouette,
+    scene: &Scene,
+    side: &Side,
+    samples: &PointSamples,
+    s: &mut Scratch,
 ) -> Result<(), Fallback> {
     let light = plugin.light();
-    let frame = Frame::new(light, samples.origin).ok_or(Fallback::NoShaft)?;
+    let frame = Frame::new(light, side.origin).ok_or(Fallback::NoShaft)?;
     // The whole hull: the path from the reference point to a sample may pass over parts of
     // the light under the tangent plane, and every edge projected there counts.
-    let shaft = Shaft::new(light, &q.point, scene.coordinate_bound()).ok_or(Fallback::NoShaft)?.without_cut();
-    let cover = shaft::Cover::new(&q.point, samples.origin, light.max_point_error());
+    let shaft = Shaft::new(light, &side.point, scene.coordinate_bound()).ok_or(Fallback::NoShaft)?.without_cut();
+    let cover = shaft::Cover::new(&side.point, side.origin, light.max_point_error());
     s.gather(plugin, scene, &shaft)?;
     s.activate(plugin, &frame)?;
     let c = &plugin.counters;
     c.edges_tested.fetch_add(s.candidates.len() as u64, Ordering::Relaxed);
     c.edges_active.fetch_add(s.active.len() as u64, Ordering::Relaxed);
-    // The samples; those the counting cannot answer for are traced.
-    s.samples.clear();
-    s.uncertain.clear();
-    let regions = &s.regions;
-    samples.for_each(|x| {
-        let inside = (0.0..=1.0).contains(&x.a) && (0.0..=1.0).contains(&x.b);
+    // This side's samples the counting cannot answer for are traced.
+    let on_side = |x: &LightSample| (x.height < 0.0) == side.below;
+    let sign = if side.below { -1.0 } else { 1.0 };
+    for (k, x) in s.samples.iter().enumerate() {
+        if !on_side(x) || x.proven {
+            continue;
+        }
         let p = DVec2::new(x.a as f64, x.b as f64);
-        s.uncertain.push(
-            !x.proven
-                && (x.height < 0.0
-                    || !inside
-                    || !cover.covers(x.height, x.target - q.point.p)
-                    || regions.iter().any(|r| r.holds(p))),
-        );
-        s.samples.push(x);
-    });
-    s.rel.clear();
-    s.rel.resize(s.samples.len(), 0);
+        s.uncertain[k] |= !cover.covers(sign * x.height, x.target - side.point.p)
+            || s.regions.iter().any(|r| r.holds(p));
+    }
     if s.active.is_empty() {
         return Ok(());
     }
@@ -136,8 +191,9 @@ fn relative_counts(
         .map(|&[a, b]| DVec2::new(a, b))
         .find(|r| s.active.iter().all(|e| e.side_at(r.x as f32, r.y as f32).abs() > 4.0 * e.band))
         .ok_or(Fallback::Unsigned)?;
-    // The counting runs over the strata grid (a sample at its stratum, absent ones NaN: no
-    // test holds for them), so that an edge visits only the rows and columns it can reach.
+    // The counting runs over the strata grid (a sample at its stratum, absent ones and the
+    // other side's NaN: no test holds for them), so that an edge visits only the rows and
+    // columns it can reach.
     let (nx, ny) = samples.strata();
     let cells = (nx * ny) as usize;
     for v in [&mut s.a, &mut s.b] {
@@ -148,7 +204,7 @@ fn relative_counts(
     s.grid_rel.resize(cells, 0);
     s.near.clear();
     s.near.resize(cells, 0);
-    for x in &s.samples {
+    for x in s.samples.iter().filter(|x| on_side(x)) {
         s.a[x.stratum as usize] = x.a;
         s.b[x.stratum as usize] = x.b;
     }
@@ -161,22 +217,25 @@ fn relative_counts(
         }
     }
     for (k, x) in s.samples.iter().enumerate() {
-        s.rel[k] = s.grid_rel[x.stratum as usize];
-        s.uncertain[k] |= s.near[x.stratum as usize] != 0;
+        if on_side(x) {
+            s.rel[k] = s.grid_rel[x.stratum as usize];
+            s.uncertain[k] |= s.near[x.stratum as usize] != 0;
+        }
     }
     Ok(())
 }
 
-/// The count of the lit samples (D = 0), or `None` in umbra: the lowest count is lit iff
-/// its ray is unblocked (none is traced where a shaft proved a sample lit). Also `None` when
-/// every sample is traced.
+/// The count of one side's lit samples (D = 0), or `None` in umbra: the lowest count is lit
+/// iff its ray is unblocked (none is traced where a shaft proved a sample lit). Also `None`
+/// when every sample of the side is traced.
 fn lit_count(
     scene: &Scene,
     samples: &PointSamples,
     s: &Scratch,
+    below: bool,
     rays: &mut u64,
 ) -> Result<Option<i32>, Fallback> {
-    let counted = || (0..s.samples.len()).filter(|&k| !s.uncertain[k]);
+    let counted = || (0..s.samples.len()).filter(|&k| !s.uncertain[k] && (s.samples[k].height < 0.0) == below);
     let Some(m) = counted().min_by_key(|&k| s.rel[k]) else { return Ok(None) };
     match counted().find(|&k| s.samples[k].proven) {
         // A sample proven lit has D = 0: its count is the lowest.
@@ -199,13 +258,12 @@ pub(super) fn count(
 ) -> Result<f32, Fallback> {
     SCRATCH.with(|cell| {
         let s = &mut *cell.borrow_mut();
-        relative_counts(plugin, scene, q, samples, s)?;
+        let mut rays = 0u64;
+        let lit = relative_counts(plugin, scene, q, samples, s, &mut rays)?;
         if s.samples.is_empty() {
             return Ok(1.0);
         }
         let c = &plugin.counters;
-        let mut rays = 0u64;
-        let lit = lit_count(scene, samples, s, &mut rays)?;
         let mut visible = 0u32;
         let mut uncertain = 0u64;
         for (k, x) in s.samples.iter().enumerate() {
@@ -214,10 +272,10 @@ pub(super) fn count(
                 rays += 1;
                 visible += !samples.occluded(scene, x) as u32;
             } else {
-                visible += (Some(s.rel[k]) == lit) as u32;
+                visible += (Some(s.rel[k]) == lit[(x.height < 0.0) as usize]) as u32;
             }
         }
-        if lit.is_none() && uncertain < s.samples.len() as u64 {
+        if lit == [None; 2] && uncertain < s.samples.len() as u64 {
             c.points_umbra.fetch_add(1, Ordering::Relaxed);
         }
         c.rays.fetch_add(rays, Ordering::Relaxed);
@@ -237,10 +295,12 @@ pub(super) fn verdicts(
 ) -> Result<Vec<(LightSample, Option<bool>)>, Fallback> {
     SCRATCH.with(|cell| {
         let s = &mut *cell.borrow_mut();
-        relative_counts(plugin, scene, q, samples, s)?;
-        let lit = lit_count(scene, samples, s, &mut 0)?;
+        let lit = relative_counts(plugin, scene, q, samples, s, &mut 0)?;
         Ok((0..s.samples.len())
-            .map(|k| (s.samples[k], (!s.uncertain[k]).then(|| Some(s.rel[k]) == lit)))
+            .map(|k| {
+                let x = s.samples[k];
+                (x, (!s.uncertain[k]).then(|| Some(s.rel[k]) == lit[(x.height < 0.0) as usize]))
+            })
             .collect())
     })
 }
