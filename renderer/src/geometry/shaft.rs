@@ -270,10 +270,17 @@ impl Shaft {
         })
     }
 
+    /// Whether the segment `a b` lies wholly outside one face (a superset of the segments
+    /// that meet the shaft is kept).
+    #[inline]
+    pub fn segment_outside(&self, a: Vec3A, b: Vec3A) -> bool {
+        self.faces.iter().any(|f| f.outside(a) && f.outside(b))
+    }
+
     /// Whether the triangle is separated from the shaft by one of its faces or by its own
     /// plane.
     #[inline]
-    fn triangle_outside(&self, v0: Vec3A, v1: Vec3A, v2: Vec3A) -> bool {
+    pub fn triangle_outside(&self, v0: Vec3A, v1: Vec3A, v2: Vec3A) -> bool {
         if self.faces.iter().any(|f| f.outside(v0) && f.outside(v1) && f.outside(v2)) {
             return true;
         }
@@ -318,50 +325,63 @@ impl Scene {
     /// `false`; returns whether every call returned `true` (also when there was none).
     pub fn shaft_triangles(&self, shaft: &Shaft, mut visit: impl FnMut(usize) -> bool) -> bool {
         let Some(bvh) = &self.bvh else { return true };
-        let nodes = &bvh.nodes;
-        if nodes.is_empty() {
-            return true;
-        }
-        // A fixed stack: Bvh2 depth is bounded by obvhs's build (max_depth); 64 entries cover
-        // any tree a scene of < 2^32 triangles builds here, and a deeper one is answered
-        // `false` (the caller's conservative answer), never wrongly.
-        let mut stack = [0u32; 64];
-        let mut top = 0usize;
-        let mut node_visit = |index: u32, stack: &mut [u32; 64], top: &mut usize| -> bool {
-            let node = &nodes[index as usize];
-            if shaft.box_outside(node.aabb.min, node.aabb.max) {
-                return true;
-            }
-            if node.prim_count == 0 {
-                if *top == stack.len() {
-                    return false;
-                }
-                stack[*top] = node.first_index;
-                *top += 1;
-                return true;
-            }
-            let first = node.first_index as usize;
-            for (k, tri) in self.triangles[first..first + node.prim_count as usize].iter().enumerate() {
+        shaft_leaves(bvh, shaft, |first, count| {
+            for (k, tri) in self.triangles[first..first + count].iter().enumerate() {
                 if !shaft.triangle_outside(tri.v0, tri.v1, tri.v2) && !visit(first + k) {
                     return false;
                 }
             }
             true
-        };
-        if !node_visit(0, &mut stack, &mut top) {
-            return false;
+        })
+    }
+}
+
+/// Calls `leaf(first, count)` for every leaf of `bvh` whose box the shaft does not exclude
+/// (its primitives are `first..first + count`, in the tree's order), until `leaf` returns
+/// `false`; returns whether every call returned `true`. Any tree over any primitives: the
+/// scene's triangles, or a method's own (silhouette edges).
+pub fn shaft_leaves(
+    bvh: &obvhs::bvh2::Bvh2,
+    shaft: &Shaft,
+    mut leaf: impl FnMut(usize, usize) -> bool,
+) -> bool {
+    let nodes = &bvh.nodes;
+    if nodes.is_empty() {
+        return true;
+    }
+    // A fixed stack: Bvh2 depth is bounded by obvhs's build (max_depth); 64 entries cover
+    // any tree a scene of < 2^32 triangles builds here, and a deeper one is answered
+    // `false` (the caller's conservative answer), never wrongly.
+    let mut stack = [0u32; 64];
+    let mut top = 0usize;
+    let mut node_visit = |index: u32, stack: &mut [u32; 64], top: &mut usize| -> bool {
+        let node = &nodes[index as usize];
+        if shaft.box_outside(node.aabb.min, node.aabb.max) {
+            return true;
         }
-        while top > 0 {
-            top -= 1;
-            let first = stack[top];
-            for index in [first, first + 1] {
-                if !node_visit(index, &mut stack, &mut top) {
-                    return false;
-                }
+        if node.prim_count == 0 {
+            if *top == stack.len() {
+                return false;
+            }
+            stack[*top] = node.first_index;
+            *top += 1;
+            return true;
+        }
+        leaf(node.first_index as usize, node.prim_count as usize)
+    };
+    if !node_visit(0, &mut stack, &mut top) {
+        return false;
+    }
+    while top > 0 {
+        top -= 1;
+        let first = stack[top];
+        for index in [first, first + 1] {
+            if !node_visit(index, &mut stack, &mut top) {
+                return false;
             }
         }
-        true
     }
+    true
 }
 
 /// Leaves per light axis of [`clear_leaves`]'s subdivision: the light splits into up to
@@ -389,17 +409,19 @@ pub fn clear_leaves(
     point: &ShadingPoint,
     strata: (u32, u32),
 ) -> (u64, u32) {
-    clear_leaves_mapped(scene, light, point, strata, |a, b| (a, b))
+    clear_leaves_mapped(scene, light, point, strata, true, |a, b| (a, b))
 }
 
 /// [`clear_leaves`] for samples drawn through a map of the strata square onto the light:
 /// `part(a, b)` gives a part of the light (a, b ranges) holding the image of the strata block
-/// `a x b` (e.g. [`crate::geometry::light_sampling::HorizonWarp::bounds`]).
+/// `a x b` (e.g. [`crate::geometry::light_sampling::HorizonWarp::bounds`]). Without
+/// `subdivide`, only the whole light is tested.
 pub fn clear_leaves_mapped(
     scene: &Scene,
     light: &RectLight,
     point: &ShadingPoint,
     strata: (u32, u32),
+    subdivide: bool,
     part: impl Fn([f32; 2], [f32; 2]) -> ([f32; 2], [f32; 2]),
 ) -> (u64, u32) {
     let (nx, ny) = (strata.0 as usize, strata.1 as usize);
@@ -434,6 +456,9 @@ pub fn clear_leaves_mapped(
         if scene.shaft_clear(&shaft) {
             mask |= leaf_rect_bits([x0, x1], [y0, y1]);
             continue;
+        }
+        if !subdivide {
+            break;
         }
         let (xm, ym) = ((x0 + x1) / 2, (y0 + y1) / 2);
         for (xa, xb) in [(x0, xm), (xm, x1)] {

@@ -11,6 +11,17 @@ use crate::interface::shadowing::ShadowQuery;
 use crate::util::sampling::{Rng, strata};
 use glam::Vec3;
 
+/// Which shafts prove samples unblocked before any ray.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Culling {
+    Off,
+    /// The whole light's shaft only: a point it proves clear costs one test (methods with
+    /// their own per-sample answer, where parts of the light proven clear save little).
+    WholeLight,
+    /// The whole light, then its parts down to [`shaft::LEAVES`] per axis (`traced`).
+    Leaves,
+}
+
 /// One light sample of a shading point, as `traced` draws it.
 #[derive(Debug, Clone, Copy)]
 pub struct LightSample {
@@ -44,14 +55,14 @@ pub struct PointSamples<'a> {
 }
 
 impl<'a> PointSamples<'a> {
-    /// The `samples` light samples of `q`, with shafts tested when `shaft_culling`, or `Err`
+    /// The `samples` light samples of `q`, with shafts tested as `culling` says, or `Err`
     /// with the answer (1) when the whole light is proven clear.
     pub fn new(
         scene: &Scene,
         light: RectLight,
         q: &'a ShadowQuery,
         samples: u32,
-        shaft_culling: bool,
+        culling: Culling,
     ) -> Result<Self, f32> {
         let (nx, ny) = strata(samples);
         // Where the horizon cuts the light, the strata are warped onto the part above it
@@ -62,12 +73,13 @@ impl<'a> PointSamples<'a> {
             HorizonPart::Clipped(w) => Some(w),
             HorizonPart::Whole | HorizonPart::Degenerate => None,
         };
-        let (clear, shaft_tests) = if shaft_culling {
+        let (clear, shaft_tests) = if culling != Culling::Off {
+            let subdivide = culling == Culling::Leaves;
             match &warp {
-                None => shaft::clear_leaves(scene, &light, point, (nx, ny)),
+                None => shaft::clear_leaves_mapped(scene, &light, point, (nx, ny), subdivide, |a, b| (a, b)),
                 // A leaf's samples lie in the image of its strata block: prove the shaft to
                 // that image's bounding rectangle.
-                Some(w) => shaft::clear_leaves_mapped(scene, &light, point, (nx, ny), |a, b| {
+                Some(w) => shaft::clear_leaves_mapped(scene, &light, point, (nx, ny), subdivide, |a, b| {
                     let (a, b) = w.bounds(a.map(f64::from), b.map(f64::from));
                     (a.map(|x| x as f32), b.map(|x| x as f32))
                 }),

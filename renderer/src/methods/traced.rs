@@ -6,7 +6,7 @@ use crate::geometry::scene::Scene;
 use crate::interface::entry::{MethodEntry, SweepSetting, top_samples};
 use crate::interface::method::{KeyError, MethodParams, NoKeys, ShadowMethod};
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
-use crate::methods::light_samples::PointSamples;
+use crate::methods::light_samples::{Culling, PointSamples};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// No shadows: V = 1 everywhere. The cost floor every method's shadow cost is measured
@@ -206,8 +206,19 @@ impl Traced {
     /// when the whole light is proven clear: the one stream `traced` and the methods that
     /// compare with it sample by sample draw from.
     pub fn point_samples<'a>(&self, scene: &Scene, q: &'a ShadowQuery) -> Result<PointSamples<'a>, f32> {
+        let culling = if self.params.shaft_culling { Culling::Leaves } else { Culling::Off };
+        self.point_samples_culled(scene, q, culling)
+    }
+
+    /// [`Traced::point_samples`] with shafts tested as `culling` says.
+    pub fn point_samples_culled<'a>(
+        &self,
+        scene: &Scene,
+        q: &'a ShadowQuery,
+        culling: Culling,
+    ) -> Result<PointSamples<'a>, f32> {
         let light = self.light.expect("prepare() runs before visibility()");
-        let samples = PointSamples::new(scene, light, q, self.params.samples, self.params.shaft_culling)?;
+        let samples = PointSamples::new(scene, light, q, self.params.samples, culling)?;
         let (tests, clear) = samples.shaft_tests();
         self.shafts.fetch_add(tests as u64, Ordering::Relaxed);
         self.shafts_clear.fetch_add(clear as u64, Ordering::Relaxed);

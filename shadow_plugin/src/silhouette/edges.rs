@@ -1,6 +1,6 @@
 //! The per-light edge set: vertices welded at bit-identical positions, every edge with its
-//! incident opaque triangles, and the potential silhouette edges for this light, reached
-//! from the triangles that own them.
+//! incident opaque triangles, and the potential silhouette edges for this light (queried
+//! through [`super::edge_tree::EdgeTree`]).
 //!
 //! An edge changes a segment's depth complexity only where the segment's plane has the
 //! edge's faces on one side (a silhouette as seen along it). Seen from a light point `s`, the
@@ -20,9 +20,6 @@ use glam::{DVec3, Vec3};
 use renderer::geometry::material::AlphaMode;
 use renderer::{RectLight, Scene};
 use std::collections::HashMap;
-
-/// No potential silhouette edge of this triangle's (or not owned by it).
-pub const NO_EDGE: u32 = u32::MAX;
 
 /// Triangle flags: what a point whose shaft meets the triangle must do.
 pub const ALPHA: u8 = 1;
@@ -48,14 +45,12 @@ pub struct EdgeSet {
     pub edges: Vec<Edge>,
     /// Third vertices of the edges' incident triangles.
     pub thirds: Vec<u32>,
-    /// Per triangle slot (BVH order): the potential silhouette edges it owns (each edge is
-    /// owned by its first incident opaque triangle, so that it is met once per point: a
-    /// shaft that meets an edge meets its owner).
-    pub owned: Vec<[u32; 3]>,
     /// Per triangle slot: the triangle's welded vertices (for zero-area triangles' bands).
     pub corners: Vec<[u32; 3]>,
     /// Per triangle slot: [`ALPHA`], [`NEAR_LIGHT`], [`ZERO_AREA`].
     pub flags: Vec<u8>,
+    /// The slots of the flagged triangles.
+    pub flagged: Vec<u32>,
     /// Counts for the run report.
     pub stats: EdgeStats,
 }
@@ -77,7 +72,7 @@ impl EdgeSet {
         (self.vertices.len() * 12
             + self.edges.len() * 16
             + self.thirds.len() * 4
-            + self.owned.len() * 12
+            + self.flagged.len() * 4
             + self.corners.len() * 12
             + self.flags.len()) as u64
     }
@@ -85,7 +80,7 @@ impl EdgeSet {
     /// The edge set of `scene`'s triangles for `light`.
     pub fn build(scene: &Scene, light: &RectLight) -> EdgeSet {
         let n = scene.triangles.len();
-        let mut set = EdgeSet { flags: vec![0; n], owned: vec![[NO_EDGE; 3]; n], ..EdgeSet::default() };
+        let mut set = EdgeSet { flags: vec![0; n], ..EdgeSet::default() };
         set.weld(scene);
         let near = near_light_band(scene, light);
         for (slot, tri) in scene.triangles.iter().enumerate() {
@@ -103,6 +98,7 @@ impl EdgeSet {
                 set.flags[slot] |= ZERO_AREA;
             }
         }
+        set.flagged = (0..n as u32).filter(|&slot| set.flags[slot as usize] != 0).collect();
         set.stats.alpha_triangles = set.flags.iter().filter(|&&f| f & ALPHA != 0).count() as u64;
         set.stats.near_light_triangles = set.flags.iter().filter(|&&f| f & NEAR_LIGHT != 0).count() as u64;
         set.stats.zero_area_triangles = set.flags.iter().filter(|&&f| f & ZERO_AREA != 0).count() as u64;
@@ -130,7 +126,7 @@ impl EdgeSet {
     }
 
     /// Every edge of the opaque, non-degenerate triangles with its incident triangles; keeps
-    /// the potential silhouette edges and gives each to its owner.
+    /// the potential silhouette edges.
     fn link_edges(&mut self, light: &RectLight) {
         // (a, b, third, slot) for every triangle side, sorted by edge.
         let mut sides: Vec<(u32, u32, u32, u32)> = Vec::with_capacity(3 * self.corners.len());
@@ -166,13 +162,8 @@ impl EdgeSet {
                 }
             };
             if keep {
-                let owner = sides[i..j].iter().map(|s| s.3).min().expect("an edge has a side");
-                let id = self.edges.len() as u32;
                 self.edges.push(Edge { a, b, first: self.thirds.len() as u32, count: count as u32 });
                 self.thirds.extend(sides[i..j].iter().map(|s| s.2));
-                let slot = &mut self.owned[owner as usize];
-                let free = slot.iter().position(|&e| e == NO_EDGE).expect("a triangle owns at most 3 edges");
-                slot[free] = id;
             }
             i = j;
         }

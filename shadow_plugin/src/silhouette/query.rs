@@ -2,14 +2,13 @@
 //! the shaft's candidates, their weights and projections, the counts, one ray.
 
 use super::counting::{ActiveEdge, Counts, count_edge, count_edge_on_grid};
-use super::edges::NO_EDGE;
-use super::projection::{Frame, Region, orient_sign, push};
+use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
 use super::{Fallback, Silhouette};
 use glam::{DVec2, DVec3, Vec3};
-use renderer::geometry::shaft::{self, Shaft};
-use renderer::methods::light_samples::{LightSample, PointSamples};
 use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;
+use renderer::geometry::shaft::{self, Shaft};
+use renderer::methods::light_samples::{LightSample, PointSamples};
 use renderer::{Scene, ShadowQuery};
 use std::cell::RefCell;
 use std::sync::atomic::Ordering;
@@ -41,19 +40,12 @@ thread_local! {
 }
 
 impl Scratch {
-    /// The shaft's candidates: owned potential silhouette edges, and flagged triangles.
-    fn gather(&mut self, plugin: &Silhouette, scene: &Scene, shaft: &Shaft) -> Result<(), Fallback> {
+    /// The shaft's candidates: potential silhouette edges, and flagged triangles.
+    fn gather(&mut self, plugin: &Silhouette, shaft: &Shaft) -> Result<(), Fallback> {
         self.candidates.clear();
         self.excluded.clear();
-        let set = &plugin.edges;
-        let complete = scene.shaft_triangles(shaft, |slot| {
-            if set.flags[slot] != 0 {
-                self.excluded.push(slot as u32);
-            }
-            self.candidates.extend(set.owned[slot].iter().filter(|&&e| e != NO_EDGE));
-            true
-        });
-        // A tree too deep for the traversal's stack: not every triangle was seen.
+        let complete = plugin.tree.gather(&plugin.edges, shaft, &mut self.candidates, &mut self.excluded);
+        // A tree too deep for the traversal's stack: not every edge was seen.
         if complete { Ok(()) } else { Err(Fallback::NoShaft) }
     }
 
@@ -75,7 +67,9 @@ impl Scratch {
             );
             let mut weight = 0;
             for &c in &set.thirds[edge.first as usize..(edge.first + edge.count) as usize] {
-                weight += orient_sign(n, n_abs, vertex(c), frame.o).ok_or(Fallback::Unsigned)?;
+                let c = vertex(c);
+                weight += orient_sign(n, n_abs, c, frame.o)
+                    .unwrap_or_else(|| exact_orient_sign(frame.o, e0, e1, c));
             }
             if weight != 0 {
                 push(&mut self.active, frame, e0, e1, n, weight);
@@ -109,7 +103,10 @@ impl Side {
         flipped.n_geom = -flipped.n_geom;
         flipped.n_shading = -flipped.n_shading;
         let below = offset_origin(&flipped, flipped.n_geom);
-        [Side { point: q.point, origin: above, below: false }, Side { point: flipped, origin: below, below: true }]
+        [
+            Side { point: q.point, origin: above, below: false },
+            Side { point: flipped, origin: below, below: true },
+        ]
     }
 }
 
@@ -165,9 +162,10 @@ fn side_counts(
     let frame = Frame::new(light, side.origin).ok_or(Fallback::NoShaft)?;
     // The whole hull: the path from the reference point to a sample may pass over parts of
     // the light under the tangent plane, and every edge projected there counts.
-    let shaft = Shaft::new(light, &side.point, scene.coordinate_bound()).ok_or(Fallback::NoShaft)?.without_cut();
+    let shaft =
+        Shaft::new(light, &side.point, scene.coordinate_bound()).ok_or(Fallback::NoShaft)?.without_cut();
     let cover = shaft::Cover::new(&side.point, side.origin, light.max_point_error());
-    s.gather(plugin, scene, &shaft)?;
+    s.gather(plugin, &shaft)?;
     s.activate(plugin, &frame)?;
     let c = &plugin.counters;
     c.edges_tested.fetch_add(s.candidates.len() as u64, Ordering::Relaxed);
@@ -180,8 +178,8 @@ fn side_counts(
             continue;
         }
         let p = DVec2::new(x.a as f64, x.b as f64);
-        s.uncertain[k] |= !cover.covers(sign * x.height, x.target - side.point.p)
-            || s.regions.iter().any(|r| r.holds(p));
+        s.uncertain[k] |=
+            !cover.covers(sign * x.height, x.target - side.point.p) || s.regions.iter().any(|r| r.holds(p));
     }
     if s.active.is_empty() {
         return Ok(());
@@ -235,7 +233,8 @@ fn lit_count(
     below: bool,
     rays: &mut u64,
 ) -> Result<Option<i32>, Fallback> {
-    let counted = || (0..s.samples.len()).filter(|&k| !s.uncertain[k] && (s.samples[k].height < 0.0) == below);
+    let counted =
+        || (0..s.samples.len()).filter(|&k| !s.uncertain[k] && (s.samples[k].height < 0.0) == below);
     let Some(m) = counted().min_by_key(|&k| s.rel[k]) else { return Ok(None) };
     match counted().find(|&k| s.samples[k].proven) {
         // A sample proven lit has D = 0: its count is the lowest.
