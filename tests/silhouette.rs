@@ -89,22 +89,24 @@ impl ShadowMethod for CheckedMethod {
 }
 
 /// (settled samples checked, samples traced by the method, disagreements, answers differing
-/// from tracing every sample).
-fn check(scene: &Path, width: u32, height: u32, samples: u32) -> [u64; 4] {
+/// from tracing every sample, points whose samples under the geometric tangent plane were
+/// counted).
+fn check(scene: &Path, width: u32, height: u32, samples: u32) -> [u64; 5] {
     let got = checked::counters(
         scene,
         (width, height, samples),
         Arc::new(CheckedMethod),
         "silhouette",
-        ["checked_settled", "checked_traced", "checked_wrong", "answers_differ"],
+        ["checked_settled", "checked_traced", "checked_wrong", "answers_differ", "points_counted_below"],
     );
     eprintln!(
-        "{}: {} settled, {} traced by the method; {} wrong; {} answers differ",
+        "{}: {} settled, {} traced by the method; {} wrong; {} answers differ; {} points counted below",
         scene.display(),
         got[0],
         got[1],
         got[2],
-        got[3]
+        got[3],
+        got[4]
     );
     got
 }
@@ -114,19 +116,19 @@ fn root() -> PathBuf {
 }
 
 /// Sums the checks over scenes and asserts none disagrees; returns the samples settled.
-fn check_all(scenes: &[PathBuf], width: u32, height: u32, samples: u32) -> u64 {
+fn check_all(scenes: &[PathBuf], width: u32, height: u32, samples: u32) -> [u64; 5] {
     let total = checked::summed(scenes, |s| check(s, width, height, samples));
     eprintln!("total: {} settled, {} traced by the method; {} wrong", total[0], total[1], total[2]);
     assert_eq!(total[2], 0, "samples the counting settled that the BVH disagrees with");
     assert_eq!(total[3], 0, "answers differing from tracing the same samples");
-    total[0]
+    total
 }
 
 /// The default scene: the visibility equals `traced`'s with the same samples, bit for bit, at
 /// every pixel.
 #[test]
 fn default_scene_equals_tracing_the_same_samples() {
-    let settled = check_all(&[root().join("scenes/default.toml")], 160, 120, 256);
+    let settled = check_all(&[root().join("scenes/default.toml")], 160, 120, 256)[0];
     assert!(settled > 200_000, "only {settled} settled samples checked");
 }
 
@@ -140,18 +142,21 @@ fn shared_scenes_agree_with_the_bvh() {
         .filter(|p| p.extension().is_some_and(|e| e == "toml"))
         .collect();
     scenes.sort();
-    let settled = check_all(&scenes, 64, 48, 256);
+    let settled = check_all(&scenes, 64, 48, 256)[0];
     assert!(settled > 1_000_000, "only {settled} settled samples checked");
 }
 
 /// Random soups with shared edges, terraced heightfields (closed boxes), duplicated and
-/// reversed triangles, non-manifold fans, T-junctions and crossing closed boxes, each under a
-/// light of its own size: every settled sample agrees with the BVH.
+/// reversed triangles, non-manifold fans, T-junctions, crossing closed boxes and meshes with
+/// smoothed normals (samples under the geometric tangent plane, counted from the origin
+/// below it), each under a light of its own size: every settled sample agrees with the BVH.
 #[test]
 fn soups_heightfields_and_stress_meshes_agree_with_the_bvh() {
     let dir = TempDir::new("silhouette-soups");
     let mut scenes = soups::soups_and_terraces(&dir, 17);
     scenes.extend(soups::stress_soups(&dir, 29));
-    let settled = check_all(&scenes, 64, 48, 512);
+    scenes.extend(soups::smooth_soups(&dir, 31));
+    let [settled, .., below] = check_all(&scenes, 64, 48, 512);
     assert!(settled > 6_000_000, "only {settled} settled samples checked");
+    assert!(below > 200, "only {below} points counted from below the tangent plane");
 }

@@ -182,3 +182,69 @@ pub fn stress_soups(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
     }
     scenes
 }
+
+/// Meshes with smoothed normals (shading normals tilted up to ~40 degrees off the faces), so
+/// that lights lie partly under a point's geometric tangent plane and above its shading
+/// horizon: coarse spheres with radial normals and a bumpy heightfield with normals from
+/// random slopes, from `seed`.
+pub fn smooth_soups(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
+    let mut rng = Rng::new(seed);
+    let mut r = move || rng.next_f32();
+    let mut tris: Vec<[[f32; 3]; 3]> = Vec::new();
+    let mut normals: Vec<[[f32; 3]; 3]> = Vec::new();
+    // Coarse latitude-longitude spheres (8 x 6): vertices shared bit for bit between faces.
+    for _ in 0..6 {
+        let (c, rad) = ([r() * 1.4 - 0.7, 0.3 + r() * 0.8, r() * 1.4 - 0.7], 0.1 + r() * 0.25);
+        let dir = |i: usize, j: usize| {
+            let (th, ph) = (std::f32::consts::PI * j as f32 / 6.0, std::f32::consts::TAU * i as f32 / 8.0);
+            [th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()]
+        };
+        let at = |d: [f32; 3]| [c[0] + rad * d[0], c[1] + rad * d[1], c[2] + rad * d[2]];
+        for i in 0..8 {
+            for j in 0..6 {
+                let q = [dir(i, j), dir(i + 1, j), dir(i + 1, j + 1), dir(i, j + 1)];
+                for [a, b, d] in [[0, 1, 2], [0, 2, 3]] {
+                    if (j == 0 && b == 1) || (j == 5 && d == 3 && a == 0 && b == 2) {
+                        continue; // the poles' collapsed sides
+                    }
+                    tris.push([at(q[a]), at(q[b]), at(q[d])]);
+                    normals.push([q[a], q[b], q[d]]);
+                }
+            }
+        }
+    }
+    // A bumpy heightfield (12 x 12 cells) whose vertex normals lean by random slopes.
+    let n = 12;
+    let height: Vec<f32> = (0..(n + 1) * (n + 1)).map(|_| 0.05 + 0.25 * r()).collect();
+    let lean: Vec<[f32; 3]> =
+        (0..(n + 1) * (n + 1)).map(|_| [r() * 1.6 - 0.8, 1.0, r() * 1.6 - 0.8]).collect();
+    let vertex = |i: usize, j: usize| {
+        let k = i * (n + 1) + j;
+        ([-0.9 + 1.8 * i as f32 / n as f32, height[k], -0.9 + 1.8 * j as f32 / n as f32], lean[k])
+    };
+    for i in 0..n {
+        for j in 0..n {
+            let q = [vertex(i, j), vertex(i + 1, j), vertex(i + 1, j + 1), vertex(i, j + 1)];
+            for [a, b, d] in [[0, 2, 1], [0, 3, 2]] {
+                tris.push([q[a].0, q[b].0, q[d].0]);
+                normals.push([q[a].1, q[b].1, q[d].1]);
+            }
+        }
+    }
+    let mut g = GltfBuilder::default();
+    let pos = g.positions(&tris.iter().flatten().copied().collect::<Vec<_>>());
+    let nrm = g.normals(&normals.iter().flatten().copied().collect::<Vec<_>>());
+    let material = g.material(
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1.0]}, "doubleSided": true}),
+    );
+    let mesh = g.mesh(vec![json!({"attributes": {"POSITION": pos, "NORMAL": nrm}, "material": material})]);
+    let node = g.node(json!({"mesh": mesh}));
+    let scene = g.scene(&[node]);
+    g.set_default_scene(scene);
+    let model = g.write(&dir.path, "smooth");
+    [0.4, 1.5]
+        .iter()
+        .enumerate()
+        .map(|(k, &size)| scene_file(dir, &format!("smooth{k}"), &model, size))
+        .collect()
+}

@@ -13,8 +13,23 @@ use renderer::{Scene, ShadowQuery};
 use std::cell::RefCell;
 use std::sync::atomic::Ordering;
 
-/// Where the reference point may go, tried in order: one clear of every edge's band.
-const REFERENCES: [[f64; 2]; 4] = [[0.5, 0.5], [0.3125, 0.6875], [0.6875, 0.3125], [0.40625, 0.15625]];
+/// Where the reference point may go, tried in order: one clear of every edge's band. The
+/// centre first (the shortest paths); the outer ones for a point next to a crease, whose
+/// edge's band can cover a strip through the middle of the light.
+const REFERENCES: [[f64; 2]; 12] = [
+    [0.5, 0.5],
+    [0.3125, 0.6875],
+    [0.6875, 0.3125],
+    [0.40625, 0.15625],
+    [0.125, 0.125],
+    [0.875, 0.875],
+    [0.125, 0.875],
+    [0.875, 0.125],
+    [0.5, 0.0625],
+    [0.5, 0.9375],
+    [0.0625, 0.5],
+    [0.9375, 0.5],
+];
 
 #[derive(Default)]
 struct Scratch {
@@ -134,6 +149,9 @@ fn relative_counts(
     for side in Side::both(q, samples.origin) {
         if !s.samples.iter().any(|x| (x.height < 0.0) == side.below) {
             continue;
+        }
+        if side.below {
+            plugin.counters.points_below.fetch_add(1, Ordering::Relaxed);
         }
         match side_counts(plugin, scene, &side, samples, s) {
             Ok(()) => lit[side.below as usize] = lit_count(scene, samples, s, side.below, rays)?,
