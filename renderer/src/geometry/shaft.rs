@@ -325,24 +325,31 @@ impl Scene {
     /// `false`; returns whether every call returned `true` (also when there was none).
     pub fn shaft_triangles(&self, shaft: &Shaft, mut visit: impl FnMut(usize) -> bool) -> bool {
         let Some(bvh) = &self.bvh else { return true };
-        shaft_leaves(bvh, shaft, |first, count| {
-            for (k, tri) in self.triangles[first..first + count].iter().enumerate() {
-                if !shaft.triangle_outside(tri.v0, tri.v1, tri.v2) && !visit(first + k) {
-                    return false;
+        shaft_leaves(
+            bvh,
+            shaft,
+            |_| false,
+            |first, count| {
+                for (k, tri) in self.triangles[first..first + count].iter().enumerate() {
+                    if !shaft.triangle_outside(tri.v0, tri.v1, tri.v2) && !visit(first + k) {
+                        return false;
+                    }
                 }
-            }
-            true
-        })
+                true
+            },
+        )
     }
 }
 
 /// Calls `leaf(first, count)` for every leaf of `bvh` whose box the shaft does not exclude
 /// (its primitives are `first..first + count`, in the tree's order), until `leaf` returns
 /// `false`; returns whether every call returned `true`. Any tree over any primitives: the
-/// scene's triangles, or a method's own (silhouette edges).
+/// scene's triangles, or a method's own (silhouette edges). A node for which `skip(index)`
+/// holds is not entered (the caller's own bound proves its subtree irrelevant).
 pub fn shaft_leaves(
     bvh: &obvhs::bvh2::Bvh2,
     shaft: &Shaft,
+    skip: impl Fn(usize) -> bool,
     mut leaf: impl FnMut(usize, usize) -> bool,
 ) -> bool {
     let nodes = &bvh.nodes;
@@ -356,7 +363,7 @@ pub fn shaft_leaves(
     let mut top = 0usize;
     let mut node_visit = |index: u32, stack: &mut [u32; 64], top: &mut usize| -> bool {
         let node = &nodes[index as usize];
-        if shaft.box_outside(node.aabb.min, node.aabb.max) {
+        if shaft.box_outside(node.aabb.min, node.aabb.max) || skip(index as usize) {
             return true;
         }
         if node.prim_count == 0 {

@@ -7,9 +7,16 @@
 //! Rejected: a grid of lists over the light's directions (Laine et al.'s hemicube): one list
 //! per direction cell still holds every edge a wedge of points may see, and the shaft test
 //! the renderer already has prunes the same way.
+//!
+//! Each node also bounds its edges' face planes ([`Cone`]): an edge between two faces weighs
+//! 0 from an origin in front of both faces or behind both, so a node whose every face plane
+//! has the origin on one side holds no active edge and is not entered. On a finely
+//! tessellated smooth mesh (metal-rough-spheres: 2,400 candidate edges per point, 93 active)
+//! most of the shaft's edges are of that kind: the smooth surface's interior seen from one
+//! side.
 
 use super::edges::EdgeSet;
-use glam::Vec3A;
+use glam::{DVec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use renderer::geometry::shaft::{self, Shaft};
@@ -23,6 +30,73 @@ const TRIANGLE: u32 = 1 << 31;
 pub struct EdgeTree {
     bvh: Option<Bvh2>,
     items: Vec<u32>,
+    /// Per node: the bound of its items' face planes.
+    cones: Vec<Cone>,
+}
+
+/// A bound on a set of planes through points `x` with unit normals `g`: every `g` within
+/// `spread` of the unit `axis`, every `x` within `reach` of `centre` and within `depth` of
+/// it along the axis. Then for any origin o, `g . (o - x)` lies within
+/// `axis . (o - centre) +- (depth + spread (|o - centre| + reach))`. An infinite spread
+/// bounds nothing (boundary and non-manifold edges, flagged triangles: never pruned).
+#[derive(Debug, Clone, Copy)]
+struct Cone {
+    axis: DVec3,
+    centre: DVec3,
+    spread: f64,
+    reach: f64,
+    depth: f64,
+}
+
+impl Cone {
+    const NONE: Cone =
+        Cone { axis: DVec3::Z, centre: DVec3::ZERO, spread: f64::INFINITY, reach: 0.0, depth: 0.0 };
+
+    /// Whether `o` is strictly on one side of every plane the cone bounds, with a margin for
+    /// the f64 evaluation (relative 1e-9 of the magnitudes involved: far above its rounding).
+    fn one_side(&self, o: DVec3) -> bool {
+        if !self.spread.is_finite() {
+            return false;
+        }
+        let d = o - self.centre;
+        let dist = d.length();
+        let margin = 1e-9 * (o.abs().max_element() + self.centre.abs().max_element() + dist + self.reach);
+        self.axis.dot(d).abs() > self.depth + self.spread * (dist + self.reach) + margin
+    }
+
+    /// The cone of planes `(g, x)`.
+    fn of(planes: &[(DVec3, DVec3)]) -> Cone {
+        let sum: DVec3 = planes.iter().map(|p| p.0).sum();
+        let Some(axis) = sum.try_normalize() else { return Cone::NONE };
+        let (lo, hi) = planes
+            .iter()
+            .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p.1), hi.max(p.1)));
+        let centre = 0.5 * (lo + hi);
+        let mut cone = Cone { axis, centre, spread: 0.0, reach: 0.0, depth: 0.0 };
+        for &(g, x) in planes {
+            cone.spread = cone.spread.max((g - axis).length());
+            cone.reach = cone.reach.max((x - centre).length());
+            cone.depth = cone.depth.max(axis.dot(x - centre).abs());
+        }
+        cone
+    }
+
+    /// A cone holding both (see the module doc's bound, applied to each child's).
+    fn merge(a: &Cone, b: &Cone) -> Cone {
+        if !(a.spread.is_finite() && b.spread.is_finite()) {
+            return Cone::NONE;
+        }
+        let Some(axis) = (a.axis + b.axis).try_normalize() else { return Cone::NONE };
+        let centre = 0.5 * (a.centre + b.centre);
+        let mut cone = Cone { axis, centre, spread: 0.0, reach: 0.0, depth: 0.0 };
+        for k in [a, b] {
+            let turn = (axis - k.axis).length();
+            cone.spread = cone.spread.max(turn + k.spread);
+            cone.reach = cone.reach.max((k.centre - centre).length() + k.reach);
+            cone.depth = cone.depth.max(axis.dot(k.centre - centre).abs() + k.depth + turn * k.reach);
+        }
+        cone
+    }
 }
 
 impl std::fmt::Debug for EdgeTree {
@@ -54,8 +128,9 @@ impl EdgeTree {
         // (one per point) against the thousands of rays of the scene's own tree.
         let params = obvhs::BvhBuildParams::fast_build();
         let bvh = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
-        let items = bvh.primitive_indices.iter().map(|&i| items[i as usize]).collect();
-        EdgeTree { bvh: Some(bvh), items }
+        let items: Vec<u32> = bvh.primitive_indices.iter().map(|&i| items[i as usize]).collect();
+        let cones = cones(&bvh, &items, set);
+        EdgeTree { bvh: Some(bvh), items, cones }
     }
 
     /// Bytes held.
@@ -66,17 +141,20 @@ impl EdgeTree {
 
     /// The edges and flagged triangles the shaft test cannot separate from `shaft`, into
     /// `edges` and `triangles`; `false` where the tree is too deep for the traversal's stack
-    /// (then the lists are incomplete).
+    /// (then the lists are incomplete). Nodes whose every edge weighs 0 from `origin` (the
+    /// rays' origin) are skipped.
     pub fn gather(
         &self,
         set: &EdgeSet,
         shaft: &Shaft,
+        origin: DVec3,
         edges: &mut Vec<u32>,
         triangles: &mut Vec<u32>,
     ) -> bool {
         let Some(bvh) = &self.bvh else { return true };
         let vertex = |i: u32| Vec3A::from(set.vertices[i as usize]);
-        shaft::shaft_leaves(bvh, shaft, |first, count| {
+        let smooth = |node: usize| self.cones[node].one_side(origin);
+        shaft::shaft_leaves(bvh, shaft, smooth, |first, count| {
             for &item in &self.items[first..first + count] {
                 if item & TRIANGLE == 0 {
                     let e = set.edges[item as usize];
@@ -93,5 +171,112 @@ impl EdgeTree {
             }
             true
         })
+    }
+}
+
+/// The face planes of an item: an edge between exactly two faces gives both, with normals
+/// oriented so that it weighs 0 exactly where the origin is on one side of both
+/// (orient3d(o, e0, e1, c) = -N . (o - e0), N = (e1 - e0) x (c - e0): the weight is 0 iff
+/// the two N . (o - e0) differ in sign; the second N is negated to compare like signs, and
+/// both follow the first face's winding so that neighbours on a consistently wound mesh
+/// agree). Anything else: `None` (never pruned).
+fn planes(item: u32, set: &EdgeSet) -> Option<[(DVec3, DVec3); 2]> {
+    if item & TRIANGLE != 0 {
+        return None;
+    }
+    let e = set.edges[item as usize];
+    if e.count != 2 {
+        return None;
+    }
+    let v = |i: u32| set.vertices[i as usize].as_dvec3();
+    let (a, b) = (v(e.a), v(e.b));
+    let third = &set.thirds[e.first as usize..e.first as usize + 2];
+    let n0 = (b - a).cross(v(third[0]) - a).try_normalize()?;
+    let n1 = (b - a).cross(v(third[1]) - a).try_normalize()?;
+    let s = if set.forward[item as usize] { 1.0 } else { -1.0 };
+    Some([(s * n0, a), (-s * n1, a)])
+}
+
+/// Every node's cone, children before parents (a node's children follow it in obvhs's
+/// layout: built by an explicit post-order walk).
+fn cones(bvh: &Bvh2, items: &[u32], set: &EdgeSet) -> Vec<Cone> {
+    let mut cones = vec![Cone::NONE; bvh.nodes.len()];
+    let mut order = Vec::with_capacity(bvh.nodes.len());
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        order.push(i);
+        let node = &bvh.nodes[i];
+        if node.prim_count == 0 {
+            stack.extend([node.first_index as usize, node.first_index as usize + 1]);
+        }
+    }
+    let mut planes_buf = Vec::new();
+    for &i in order.iter().rev() {
+        let node = &bvh.nodes[i];
+        cones[i] = if node.prim_count == 0 {
+            let first = node.first_index as usize;
+            Cone::merge(&cones[first], &cones[first + 1])
+        } else {
+            planes_buf.clear();
+            let range = node.first_index as usize..(node.first_index + node.prim_count) as usize;
+            let mut all = true;
+            for &item in &items[range] {
+                match planes(item, set) {
+                    Some(p) => planes_buf.extend(p),
+                    None => all = false,
+                }
+            }
+            if all { Cone::of(&planes_buf) } else { Cone::NONE }
+        };
+    }
+    cones
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Wherever a cone (of a leaf, or merged from two) claims an origin is on one side of
+    /// its planes, every plane it bounds has the origin strictly on one and the same side;
+    /// and it does claim so for origins far along its axis.
+    #[test]
+    fn a_cone_prunes_only_where_every_plane_agrees() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let (mut claimed, mut far_claimed) = (0, 0);
+        for _ in 0..300 {
+            // Two clusters of planes: normals near one direction, points in a small patch.
+            let cluster = |next: &mut dyn FnMut() -> f64, normal: DVec3| -> Vec<(DVec3, DVec3)> {
+                let centre = DVec3::new(next(), next(), next());
+                (0..8)
+                    .map(|_| {
+                        let g = (normal + 0.2 * DVec3::new(next(), next(), next())).normalize();
+                        (g, centre + 0.1 * DVec3::new(next(), next(), next()))
+                    })
+                    .collect()
+            };
+            let n = DVec3::new(next(), next(), 1.0).normalize();
+            let a = cluster(&mut next, n);
+            let b = cluster(&mut next, (n + 0.3 * DVec3::X).normalize());
+            let merged = Cone::merge(&Cone::of(&a), &Cone::of(&b));
+            let planes: Vec<_> = a.iter().chain(&b).copied().collect();
+            for _ in 0..50 {
+                let o = 4.0 * DVec3::new(next(), next(), next());
+                if merged.one_side(o) {
+                    claimed += 1;
+                    let sides: Vec<bool> = planes.iter().map(|(g, x)| g.dot(o - *x) > 0.0).collect();
+                    assert!(sides.iter().all(|&s| s == sides[0]), "a plane on the other side at {o}");
+                    assert!(planes.iter().all(|(g, x)| g.dot(o - *x) != 0.0));
+                }
+            }
+            far_claimed += merged.one_side(merged.centre + 100.0 * merged.axis) as u32;
+        }
+        assert!(claimed > 1000, "only {claimed} origins pruned");
+        assert_eq!(far_claimed, 300);
     }
 }

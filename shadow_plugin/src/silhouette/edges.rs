@@ -45,6 +45,9 @@ pub struct EdgeSet {
     pub edges: Vec<Edge>,
     /// Third vertices of the edges' incident triangles.
     pub thirds: Vec<u32>,
+    /// Per edge: whether its first incident triangle's winding runs a -> b (orients the
+    /// faces' normals alike across a consistently wound mesh: [`super::edge_tree`]'s cones).
+    pub forward: Vec<bool>,
     /// Per triangle slot: the triangle's welded vertices (for zero-area triangles' bands).
     pub corners: Vec<[u32; 3]>,
     /// Per triangle slot: [`ALPHA`], [`NEAR_LIGHT`], [`ZERO_AREA`].
@@ -72,6 +75,7 @@ impl EdgeSet {
         (self.vertices.len() * 12
             + self.edges.len() * 16
             + self.thirds.len() * 4
+            + self.forward.len()
             + self.flagged.len() * 4
             + self.corners.len() * 12
             + self.flags.len()) as u64
@@ -128,15 +132,16 @@ impl EdgeSet {
     /// Every edge of the opaque, non-degenerate triangles with its incident triangles; keeps
     /// the potential silhouette edges.
     fn link_edges(&mut self, light: &RectLight) {
-        // (a, b, third, slot) for every triangle side, sorted by edge.
-        let mut sides: Vec<(u32, u32, u32, u32)> = Vec::with_capacity(3 * self.corners.len());
+        // (a, b, third, whether the triangle's winding runs a -> b) for every triangle side,
+        // sorted by edge.
+        let mut sides: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(3 * self.corners.len());
         for (slot, c) in self.corners.iter().enumerate() {
             if self.flags[slot] != 0 {
                 continue;
             }
             for k in 0..3 {
                 let (a, b, third) = (c[k], c[(k + 1) % 3], c[(k + 2) % 3]);
-                sides.push((a.min(b), a.max(b), third, slot as u32));
+                sides.push((a.min(b), a.max(b), third, a < b));
             }
         }
         sides.sort_unstable();
@@ -164,6 +169,7 @@ impl EdgeSet {
             if keep {
                 self.edges.push(Edge { a, b, first: self.thirds.len() as u32, count: count as u32 });
                 self.thirds.extend(sides[i..j].iter().map(|s| s.2));
+                self.forward.push(sides[i].3);
             }
             i = j;
         }

@@ -56,10 +56,11 @@ thread_local! {
 
 impl Scratch {
     /// The shaft's candidates: potential silhouette edges, and flagged triangles.
-    fn gather(&mut self, plugin: &Silhouette, shaft: &Shaft) -> Result<(), Fallback> {
+    fn gather(&mut self, plugin: &Silhouette, shaft: &Shaft, origin: DVec3) -> Result<(), Fallback> {
         self.candidates.clear();
         self.excluded.clear();
-        let complete = plugin.tree.gather(&plugin.edges, shaft, &mut self.candidates, &mut self.excluded);
+        let (set, tree) = (&plugin.edges, &plugin.tree);
+        let complete = tree.gather(set, shaft, origin, &mut self.candidates, &mut self.excluded);
         // A tree too deep for the traversal's stack: not every edge was seen.
         if complete { Ok(()) } else { Err(Fallback::NoShaft) }
     }
@@ -183,7 +184,7 @@ fn side_counts(
     let shaft =
         Shaft::new(light, &side.point, scene.coordinate_bound()).ok_or(Fallback::NoShaft)?.without_cut();
     let cover = shaft::Cover::new(&side.point, side.origin, light.max_point_error());
-    s.gather(plugin, &shaft)?;
+    s.gather(plugin, &shaft, frame.o)?;
     s.activate(plugin, &frame)?;
     let c = &plugin.counters;
     c.edges_tested.fetch_add(s.candidates.len() as u64, Ordering::Relaxed);
