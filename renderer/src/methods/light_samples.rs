@@ -123,7 +123,7 @@ impl<'a> PointSamples<'a> {
     /// Calls `f` with every sample above the shading horizon, in `traced`'s order.
     #[inline(always)]
     pub fn for_each(&self, mut f: impl FnMut(LightSample)) {
-        let (light, point, warp, clear) = (&self.light, &self.q.point, &self.warp, self.clear);
+        let clear = self.clear;
         let (nx, ny) = self.strata;
         let (lx, ly) = shaft::leaves_per_axis((nx, ny));
         let mut rng = Rng::new(self.q.seed);
@@ -139,28 +139,45 @@ impl<'a> PointSamples<'a> {
                     next_col = shaft::first_stratum(col + 1, nx, lx);
                 }
                 debug_assert_eq!(row_clear & (1 << col) != 0, clear & shaft::leaf_bit(i, j, (nx, ny)) != 0);
-                let mut a = (i as f32 + rng.next_f32()) / nx as f32;
-                let mut b = (j as f32 + rng.next_f32()) / ny as f32;
-                if let Some(w) = warp {
-                    let (wa, wb) = w.map(a as f64, b as f64);
-                    (a, b) = (wa as f32, wb as f32);
+                if let Some(x) = self.draw(i, j, &mut rng, row_clear & (1 << col) != 0) {
+                    f(x);
                 }
-                let target = light.point(a, b);
-                let w = target - point.p;
-                if point.n_shading.dot(w) <= 0.0 {
-                    // Below the horizon: not part of the light this point sees. (A warped
-                    // sample is above it in f64; f32 rounding may still drop one at the cut.)
-                    continue;
-                }
-                let height = point.n_geom.dot(w);
-                // `max_point_error` bounds points with a, b in [0, 1] (a warped sample off the
-                // unit square by a rounding is traced instead).
-                let proven = row_clear & (1 << col) != 0
-                    && (warp.is_none() || ((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)))
-                    && self.cover.covers(height, w);
-                f(LightSample { a, b, target, height, proven, stratum: i + nx * j });
             }
         }
+    }
+
+    /// The first sample [`PointSamples::for_each`] draws (stratum (0, 0)), unless it falls
+    /// below the shading horizon.
+    pub fn first(&self) -> Option<LightSample> {
+        let leaf_clear = self.clear & shaft::leaf_bit(0, 0, self.strata) != 0;
+        self.draw(0, 0, &mut Rng::new(self.q.seed), leaf_clear)
+    }
+
+    /// The sample of stratum (i, j), the next one `rng` draws; `None` below the horizon.
+    #[inline(always)]
+    fn draw(&self, i: u32, j: u32, rng: &mut Rng, leaf_clear: bool) -> Option<LightSample> {
+        let (light, point, warp) = (&self.light, &self.q.point, &self.warp);
+        let (nx, ny) = self.strata;
+        let mut a = (i as f32 + rng.next_f32()) / nx as f32;
+        let mut b = (j as f32 + rng.next_f32()) / ny as f32;
+        if let Some(w) = warp {
+            let (wa, wb) = w.map(a as f64, b as f64);
+            (a, b) = (wa as f32, wb as f32);
+        }
+        let target = light.point(a, b);
+        let w = target - point.p;
+        if point.n_shading.dot(w) <= 0.0 {
+            // Below the horizon: not part of the light this point sees. (A warped sample is
+            // above it in f64; f32 rounding may still drop one at the cut.)
+            return None;
+        }
+        let height = point.n_geom.dot(w);
+        // `max_point_error` bounds points with a, b in [0, 1] (a warped sample off the unit
+        // square by a rounding is traced instead).
+        let proven = leaf_clear
+            && (warp.is_none() || ((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)))
+            && self.cover.covers(height, w);
+        Some(LightSample { a, b, target, height, proven, stratum: i + nx * j })
     }
 
     /// Whether `s`'s shadow ray is blocked: `traced`'s own ray.

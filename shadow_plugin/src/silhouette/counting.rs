@@ -1,5 +1,5 @@
 //! The counting loop: one edge's share of every sample's count relative to the reference
-//! point, over the strata grid cells its path cone and band can reach.
+//! point, over the cells of the strata grid its path cone and band can reach.
 
 use glam::DVec2;
 
@@ -68,9 +68,10 @@ pub(super) fn count_edge(e: &ActiveEdge, r: DVec2, cells: std::ops::Range<usize>
 /// [`count_edge`] over the cells the edge can reach: those its path cone (the part of the
 /// light behind the edge as seen from r) or its band (around the projected segment) may
 /// hold, per row, one row and column of margin beyond (far above the f32 tests' rounding, so
-/// every cell where a test could hold is visited).
+/// every cell where a test could hold is visited). The samples are binned by cell, row-major:
+/// cell `c`'s are `starts[c]..starts[c + 1]`.
 #[inline(never)]
-pub(super) fn count_edge_on_grid(e: &ActiveEdge, r: DVec2, (nx, ny): (usize, usize), c: Counts) {
+pub(super) fn count_edge_on_grid(e: &ActiveEdge, r: DVec2, (nx, ny): (usize, usize), starts: &[u32], c: Counts) {
     let (cone, n) = path_cone(r, e.p0, e.p1);
     let grad = (e.side[1] as f64).hypot(e.side[2] as f64);
     let g = if grad > 0.0 { e.band as f64 / grad } else { f64::INFINITY } + 1e-4;
@@ -89,8 +90,9 @@ pub(super) fn count_edge_on_grid(e: &ActiveEdge, r: DVec2, (nx, ny): (usize, usi
         let i1 = ((a_hi * nx as f64).floor() + 2.0).clamp(0.0, nx as f64) as usize;
         if i0 < i1 {
             let row = j * nx;
+            let (first, last) = (starts[row + i0] as usize, starts[row + i1] as usize);
             let counts = Counts { a, b, rel: &mut *rel, near: &mut *near };
-            count_edge(e, r, row + i0..row + i1, counts);
+            count_edge(e, r, first..last, counts);
         }
     }
 }

@@ -1,7 +1,7 @@
 //! One point's visibility from its silhouette edges (see the module doc of `silhouette`):
 //! the shaft's candidates, their weights and projections, the counts, one ray.
 
-use super::counting::{ActiveEdge, Counts, count_edge, count_edge_on_grid};
+use super::counting::{ActiveEdge, Counts, count_edge_on_grid};
 use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
 use super::{Fallback, Silhouette};
 use glam::{DVec2, DVec3, Vec3};
@@ -9,7 +9,7 @@ use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;
 use renderer::geometry::shaft::{self, Shaft};
 use renderer::methods::light_samples::{LightSample, PointSamples};
-use renderer::{Scene, ShadowQuery};
+use renderer::{RectLight, Scene, ShadowQuery};
 use std::cell::RefCell;
 use std::sync::atomic::Ordering;
 
@@ -42,8 +42,13 @@ struct Scratch {
     samples: Vec<LightSample>,
     rel: Vec<i32>,
     uncertain: Vec<bool>,
-    /// The samples' light coordinates on the strata grid (NaN where none), the counts and
-    /// band marks there.
+    /// The counted samples of one side binned by cell of the strata grid (row-major): the
+    /// cells' starts, each sample's index in `samples`, light coordinates, count and band
+    /// mark, in bin order.
+    starts: Vec<u32>,
+    cursor: Vec<u32>,
+    cell_of: Vec<u32>,
+    order: Vec<u32>,
     a: Vec<f32>,
     b: Vec<f32>,
     grid_rel: Vec<i32>,
@@ -63,6 +68,51 @@ impl Scratch {
         let complete = tree.gather(set, shaft, origin, &mut self.candidates, &mut self.excluded);
         // A tree too deep for the traversal's stack: not every edge was seen.
         if complete { Ok(()) } else { Err(Fallback::NoShaft) }
+    }
+
+    /// Bins this side's counted samples by cell of the strata grid (a counting sort, so that
+    /// a row's cells i0..i1 are one range of `order`): an edge then visits only the rows and
+    /// columns it can reach, also for samples the horizon warp moved off their strata.
+    fn bin(&mut self, (nx, ny): (u32, u32), below: bool) {
+        let (nx, ny) = (nx as usize, ny as usize);
+        let cells = nx * ny;
+        let Scratch { samples, uncertain, starts, cursor, cell_of, order, a, b, grid_rel, near, .. } = self;
+        // Counted samples lie in [0, 1]^2; f32 rounding may put one a cell off its position,
+        // which the counting's margin of a row and a column covers.
+        let cell = |x: &LightSample| {
+            let i = ((x.a * nx as f32) as usize).min(nx - 1);
+            let j = ((x.b * ny as f32) as usize).min(ny - 1);
+            i + nx * j
+        };
+        starts.clear();
+        starts.resize(cells + 1, 0);
+        // Each sample's cell, or `u32::MAX` where it is not counted on this side.
+        cell_of.clear();
+        cell_of.extend(samples.iter().zip(uncertain.iter()).map(|(x, &u)| {
+            if !u && (x.height < 0.0) == below { cell(x) as u32 } else { u32::MAX }
+        }));
+        for &c in cell_of.iter().filter(|&&c| c != u32::MAX) {
+            starts[c as usize + 1] += 1;
+        }
+        for c in 0..cells {
+            starts[c + 1] += starts[c];
+        }
+        let total = starts[cells] as usize;
+        cursor.clear();
+        cursor.extend_from_slice(&starts[..cells]);
+        order.resize(total, 0);
+        a.resize(total, 0.0);
+        b.resize(total, 0.0);
+        grid_rel.clear();
+        grid_rel.resize(total, 0);
+        near.clear();
+        near.resize(total, 0);
+        for (k, &c) in cell_of.iter().enumerate().filter(|&(_, &c)| c != u32::MAX) {
+            let x = &samples[k];
+            let pos = cursor[c as usize] as usize;
+            cursor[c as usize] += 1;
+            (order[pos], a[pos], b[pos]) = (k as u32, x.a, x.b);
+        }
     }
 
     /// The candidates active for this point (weight != 0 and over the light), and the bands
@@ -126,9 +176,44 @@ impl Side {
     }
 }
 
+/// Whether every sample of the point lies over the shading horizon and the geometric
+/// tangent plane, inside the shaft and on the light (unwarped), judged from the light's
+/// corners: then, with no active edge and no flagged triangle in the shaft, one ray answers
+/// the whole point without drawing a sample. (The horizon's margin, 1e-4 of the distance,
+/// is far above the rounding of the per-sample test it stands for.)
+fn wholly_above(light: &RectLight, q: &ShadowQuery, samples: &PointSamples) -> bool {
+    let p = &q.point;
+    let corners = light.corners();
+    let far = corners.iter().map(|&c| (c - p.p).abs().element_sum()).fold(0.0, f32::max);
+    !samples.warped()
+        && shaft::covers_light(p, samples.origin, light)
+        && corners.iter().all(|&c| p.n_shading.dot(c - p.p) > 1e-4 * far)
+}
+
+/// The whole point's answer where one ray gives it ([`wholly_above`], nothing over the
+/// light): the first sample's ray, whose answer every sample shares (D is constant). The
+/// above side's edges are left in `s` either way.
+fn one_ray(
+    plugin: &Silhouette,
+    scene: &Scene,
+    q: &ShadowQuery,
+    samples: &PointSamples,
+    s: &mut Scratch,
+) -> Result<Option<f32>, Fallback> {
+    let side = Side::both(q, samples.origin)[0];
+    side_edges(plugin, scene, &side, s)?;
+    if !(s.active.is_empty() && s.regions.is_empty()) {
+        return Ok(None);
+    }
+    let Some(first) = samples.first() else { return Ok(None) };
+    plugin.counters.rays.fetch_add(1, Ordering::Relaxed);
+    Ok(Some(if samples.occluded(scene, &first) { 0.0 } else { 1.0 }))
+}
+
 /// Fills `s` with the point's samples, which of them must be traced, the others' counts
 /// relative to a reference point, and each side's count of the lit samples (`None`: umbra,
-/// or nothing counted there).
+/// or nothing counted there). With `above_gathered`, the above side's edges are already in
+/// `s`.
 fn relative_counts(
     plugin: &Silhouette,
     scene: &Scene,
@@ -136,6 +221,7 @@ fn relative_counts(
     samples: &PointSamples,
     s: &mut Scratch,
     rays: &mut u64,
+    above_gathered: bool,
 ) -> Result<[Option<i32>; 2], Fallback> {
     s.samples.clear();
     s.uncertain.clear();
@@ -154,7 +240,8 @@ fn relative_counts(
         if side.below {
             plugin.counters.points_below.fetch_add(1, Ordering::Relaxed);
         }
-        match side_counts(plugin, scene, &side, samples, s) {
+        let edges = if side.below || !above_gathered { side_edges(plugin, scene, &side, s) } else { Ok(()) };
+        match edges.and_then(|()| side_counts(plugin, &side, samples, s)) {
             Ok(()) => lit[side.below as usize] = lit_count(scene, samples, s, side.below, rays)?,
             // The side below has no shaft (its origin too near the light's plane, or behind
             // it): its samples are traced.
@@ -169,36 +256,42 @@ fn relative_counts(
     Ok(lit)
 }
 
-/// The counts of one side's samples (see [`Side`]), and which of them must be traced.
-fn side_counts(
-    plugin: &Silhouette,
-    scene: &Scene,
-    side: &Side,
-    samples: &PointSamples,
-    s: &mut Scratch,
-) -> Result<(), Fallback> {
+/// One side's active edges and flagged triangles' regions, into `s` (see [`Side`]).
+fn side_edges(plugin: &Silhouette, scene: &Scene, side: &Side, s: &mut Scratch) -> Result<(), Fallback> {
     let light = plugin.light();
     let frame = Frame::new(light, side.origin).ok_or(Fallback::NoShaft)?;
     // The whole hull: the path from the reference point to a sample may pass over parts of
     // the light under the tangent plane, and every edge projected there counts.
     let shaft =
         Shaft::new(light, &side.point, scene.coordinate_bound()).ok_or(Fallback::NoShaft)?.without_cut();
-    let cover = shaft::Cover::new(&side.point, side.origin, light.max_point_error());
     s.gather(plugin, &shaft, frame.o)?;
     s.activate(plugin, &frame)?;
     let c = &plugin.counters;
     c.edges_tested.fetch_add(s.candidates.len() as u64, Ordering::Relaxed);
     c.edges_active.fetch_add(s.active.len() as u64, Ordering::Relaxed);
+    Ok(())
+}
+
+/// The counts of one side's samples from its edges ([`side_edges`]), and which of them must
+/// be traced.
+fn side_counts(plugin: &Silhouette, side: &Side, samples: &PointSamples, s: &mut Scratch) -> Result<(), Fallback> {
+    let light = plugin.light();
+    let cover = shaft::Cover::new(&side.point, side.origin, light.max_point_error());
     // This side's samples the counting cannot answer for are traced.
     let on_side = |x: &LightSample| (x.height < 0.0) == side.below;
     let sign = if side.below { -1.0 } else { 1.0 };
-    for (k, x) in s.samples.iter().enumerate() {
-        if !on_side(x) || x.proven {
-            continue;
+    // Where the shaft covers the whole light and no flagged triangle is near, no sample of
+    // this side is uncertain for these reasons: skip the pass (most counted points).
+    let covered = shaft::covers_light(&side.point, side.origin, light);
+    if !(covered && s.regions.is_empty()) {
+        for (k, x) in s.samples.iter().enumerate() {
+            if !on_side(x) || x.proven {
+                continue;
+            }
+            let p = DVec2::new(x.a as f64, x.b as f64);
+            s.uncertain[k] |= !cover.covers(sign * x.height, x.target - side.point.p)
+                || s.regions.iter().any(|r| r.holds(p));
         }
-        let p = DVec2::new(x.a as f64, x.b as f64);
-        s.uncertain[k] |=
-            !cover.covers(sign * x.height, x.target - side.point.p) || s.regions.iter().any(|r| r.holds(p));
     }
     if s.active.is_empty() {
         return Ok(());
@@ -208,36 +301,16 @@ fn side_counts(
         .map(|&[a, b]| DVec2::new(a, b))
         .find(|r| s.active.iter().all(|e| e.side_at(r.x as f32, r.y as f32).abs() > 4.0 * e.band))
         .ok_or(Fallback::Unsigned)?;
-    // The counting runs over the strata grid (a sample at its stratum, absent ones and the
-    // other side's NaN: no test holds for them), so that an edge visits only the rows and
-    // columns it can reach.
-    let (nx, ny) = samples.strata();
-    let cells = (nx * ny) as usize;
-    for v in [&mut s.a, &mut s.b] {
-        v.clear();
-        v.resize(cells, f32::NAN);
-    }
-    s.grid_rel.clear();
-    s.grid_rel.resize(cells, 0);
-    s.near.clear();
-    s.near.resize(cells, 0);
-    for x in s.samples.iter().filter(|x| on_side(x)) {
-        s.a[x.stratum as usize] = x.a;
-        s.b[x.stratum as usize] = x.b;
-    }
-    let grid = (!samples.warped() && nx >= 8 && ny >= 8).then_some((nx as usize, ny as usize));
+    s.bin(samples.strata(), side.below);
+    let grid = samples.strata();
+    let grid = (grid.0 as usize, grid.1 as usize);
     for e in &s.active {
         let counts = Counts { a: &s.a, b: &s.b, rel: &mut s.grid_rel, near: &mut s.near };
-        match grid {
-            Some(grid) => count_edge_on_grid(e, r, grid, counts),
-            None => count_edge(e, r, 0..cells, counts),
-        }
+        count_edge_on_grid(e, r, grid, &s.starts, counts);
     }
-    for (k, x) in s.samples.iter().enumerate() {
-        if on_side(x) {
-            s.rel[k] = s.grid_rel[x.stratum as usize];
-            s.uncertain[k] |= s.near[x.stratum as usize] != 0;
-        }
+    for (pos, &k) in s.order.iter().enumerate() {
+        s.rel[k as usize] = s.grid_rel[pos];
+        s.uncertain[k as usize] |= s.near[pos] != 0;
     }
     Ok(())
 }
@@ -252,10 +325,21 @@ fn lit_count(
     below: bool,
     rays: &mut u64,
 ) -> Result<Option<i32>, Fallback> {
-    let counted =
-        || (0..s.samples.len()).filter(|&k| !s.uncertain[k] && (s.samples[k].height < 0.0) == below);
-    let Some(m) = counted().min_by_key(|&k| s.rel[k]) else { return Ok(None) };
-    match counted().find(|&k| s.samples[k].proven) {
+    // One pass: the first sample with the lowest count, and the first proven one.
+    let (mut m, mut proven) = (None::<usize>, None::<usize>);
+    for (k, x) in s.samples.iter().enumerate() {
+        if s.uncertain[k] || (x.height < 0.0) != below {
+            continue;
+        }
+        if m.is_none_or(|m| s.rel[k] < s.rel[m]) {
+            m = Some(k);
+        }
+        if x.proven && proven.is_none() {
+            proven = Some(k);
+        }
+    }
+    let Some(m) = m else { return Ok(None) };
+    match proven {
         // A sample proven lit has D = 0: its count is the lowest.
         Some(k) if s.rel[k] == s.rel[m] => Ok(Some(s.rel[k])),
         // Never seen; a count that contradicts a proof is traced rather than trusted.
@@ -276,8 +360,13 @@ pub(super) fn count(
 ) -> Result<f32, Fallback> {
     SCRATCH.with(|cell| {
         let s = &mut *cell.borrow_mut();
+        let light = plugin.light();
+        let gathered = wholly_above(light, q, samples);
+        if gathered && let Some(v) = one_ray(plugin, scene, q, samples, s)? {
+            return Ok(v);
+        }
         let mut rays = 0u64;
-        let lit = relative_counts(plugin, scene, q, samples, s, &mut rays)?;
+        let lit = relative_counts(plugin, scene, q, samples, s, &mut rays, gathered)?;
         if s.samples.is_empty() {
             return Ok(1.0);
         }
@@ -313,7 +402,7 @@ pub(super) fn verdicts(
 ) -> Result<Vec<(LightSample, Option<bool>)>, Fallback> {
     SCRATCH.with(|cell| {
         let s = &mut *cell.borrow_mut();
-        let lit = relative_counts(plugin, scene, q, samples, s, &mut 0)?;
+        let lit = relative_counts(plugin, scene, q, samples, s, &mut 0, false)?;
         Ok((0..s.samples.len())
             .map(|k| {
                 let x = s.samples[k];
