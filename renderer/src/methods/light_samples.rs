@@ -146,11 +146,14 @@ impl<'a> PointSamples<'a> {
         }
     }
 
-    /// The first sample [`PointSamples::for_each`] draws (stratum (0, 0)), unless it falls
-    /// below the shading horizon.
-    pub fn first(&self) -> Option<LightSample> {
-        let leaf_clear = self.clear & shaft::leaf_bit(0, 0, self.strata) != 0;
-        self.draw(0, 0, &mut Rng::new(self.q.seed), leaf_clear)
+    /// The sample [`PointSamples::for_each`] draws for stratum `i + nx j`, alone (the
+    /// stream jumps to its draws), unless it falls below the shading horizon.
+    pub fn at(&self, stratum: u32) -> Option<LightSample> {
+        let (i, j) = (stratum % self.strata.0, stratum / self.strata.0);
+        let leaf_clear = self.clear & shaft::leaf_bit(i, j, self.strata) != 0;
+        let mut rng = Rng::new(self.q.seed);
+        rng.skip(2 * stratum as u64);
+        self.draw(i, j, &mut rng, leaf_clear)
     }
 
     /// The sample of stratum (i, j), the next one `rng` draws; `None` below the horizon.

@@ -36,6 +36,12 @@ impl Rng {
         mix64(self.state)
     }
 
+    /// The generator `n` draws further on (SplitMix64's state moves by a constant per draw).
+    #[inline]
+    pub fn skip(&mut self, n: u64) {
+        self.state = self.state.wrapping_add(n.wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    }
+
     /// Uniform in [0, 1), 24 bits.
     #[inline]
     pub fn next_f32(&mut self) -> f32 {

@@ -65,18 +65,20 @@ pub(super) fn count_edge(e: &ActiveEdge, r: DVec2, cells: std::ops::Range<usize>
     }
 }
 
-/// [`count_edge`] over the cells the edge can reach: those its path cone (the part of the
+/// The cells an edge can reach, per row `j`: `i0..i1`, those its path cone (the part of the
 /// light behind the edge as seen from r) or its band (around the projected segment) may
-/// hold, per row, one row and column of margin beyond (far above the f32 tests' rounding, so
-/// every cell where a test could hold is visited). The samples are binned by cell, row-major:
-/// cell `c`'s are `starts[c]..starts[c + 1]`.
-#[inline(never)]
-pub(super) fn count_edge_on_grid(e: &ActiveEdge, r: DVec2, (nx, ny): (usize, usize), starts: &[u32], c: Counts) {
+/// hold, with one row and column of margin beyond (far above the f32 tests' rounding, so
+/// every cell where a test could hold is visited).
+pub(super) fn reach_rows(
+    e: &ActiveEdge,
+    r: DVec2,
+    (nx, ny): (usize, usize),
+    mut row: impl FnMut(usize, usize, usize),
+) {
     let (cone, n) = path_cone(r, e.p0, e.p1);
     let grad = (e.side[1] as f64).hypot(e.side[2] as f64);
     let g = if grad > 0.0 { e.band as f64 / grad } else { f64::INFINITY } + 1e-4;
     let (lo, hi) = (e.p0.min(e.p1) - DVec2::splat(g), e.p0.max(e.p1) + DVec2::splat(g));
-    let Counts { a, b, rel, near } = c;
     for j in 0..ny {
         let (y0, y1) = ((j as f64 - 1.0) / ny as f64, (j as f64 + 2.0) / ny as f64);
         let (mut a_lo, mut a_hi) = a_range(&cone[..n], y0, y1);
@@ -89,12 +91,22 @@ pub(super) fn count_edge_on_grid(e: &ActiveEdge, r: DVec2, (nx, ny): (usize, usi
         let i0 = ((a_lo * nx as f64).floor() - 1.0).clamp(0.0, nx as f64) as usize;
         let i1 = ((a_hi * nx as f64).floor() + 2.0).clamp(0.0, nx as f64) as usize;
         if i0 < i1 {
-            let row = j * nx;
-            let (first, last) = (starts[row + i0] as usize, starts[row + i1] as usize);
-            let counts = Counts { a, b, rel: &mut *rel, near: &mut *near };
-            count_edge(e, r, first..last, counts);
+            row(j, i0, i1);
         }
     }
+}
+
+/// [`count_edge`] over the cells the edge can reach ([`reach_rows`]). The samples are binned
+/// by cell, row-major: cell `c`'s are `starts[c]..starts[c + 1]`.
+#[inline(never)]
+pub(super) fn count_edge_on_grid(e: &ActiveEdge, r: DVec2, grid: (usize, usize), starts: &[u32], c: Counts) {
+    let Counts { a, b, rel, near } = c;
+    reach_rows(e, r, grid, |j, i0, i1| {
+        let row = j * grid.0;
+        let (first, last) = (starts[row + i0] as usize, starts[row + i1] as usize);
+        let counts = Counts { a, b, rel: &mut *rel, near: &mut *near };
+        count_edge(e, r, first..last, counts);
+    });
 }
 
 /// The part of the (slightly grown) light behind segment p0 p1 as seen from r: a convex

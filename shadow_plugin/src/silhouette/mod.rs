@@ -21,6 +21,7 @@
 //! Scene file: `method = "silhouette"`; `[shadows.silhouette]` takes no keys (the sample
 //! count is `[shadows].samples`, as for `traced`).
 
+mod cells;
 mod counting;
 mod edge_tree;
 mod edges;

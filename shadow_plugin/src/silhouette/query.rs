@@ -1,7 +1,8 @@
 //! One point's visibility from its silhouette edges (see the module doc of `silhouette`):
 //! the shaft's candidates, their weights and projections, the counts, one ray.
 
-use super::counting::{ActiveEdge, Counts, count_edge_on_grid};
+use super::cells::{Verdict, edge_verdicts};
+use super::counting::{ActiveEdge, Counts, count_edge, count_edge_on_grid};
 use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
 use super::{Fallback, Silhouette};
 use glam::{DVec2, DVec3, Vec3};
@@ -53,6 +54,8 @@ struct Scratch {
     b: Vec<f32>,
     grid_rel: Vec<i32>,
     near: Vec<u8>,
+    /// Cell by cell ([`count_cells`]): which cells' samples are drawn.
+    drawn: Vec<bool>,
 }
 
 thread_local! {
@@ -88,9 +91,12 @@ impl Scratch {
         starts.resize(cells + 1, 0);
         // Each sample's cell, or `u32::MAX` where it is not counted on this side.
         cell_of.clear();
-        cell_of.extend(samples.iter().zip(uncertain.iter()).map(|(x, &u)| {
-            if !u && (x.height < 0.0) == below { cell(x) as u32 } else { u32::MAX }
-        }));
+        cell_of.extend(
+            samples
+                .iter()
+                .zip(uncertain.iter())
+                .map(|(x, &u)| if !u && (x.height < 0.0) == below { cell(x) as u32 } else { u32::MAX }),
+        );
         for &c in cell_of.iter().filter(|&&c| c != u32::MAX) {
             starts[c as usize + 1] += 1;
         }
@@ -152,6 +158,15 @@ impl Scratch {
     }
 }
 
+/// The reference point: the first of [`REFERENCES`] clear of every edge's band.
+fn reference(active: &[ActiveEdge]) -> Result<DVec2, Fallback> {
+    REFERENCES
+        .iter()
+        .map(|&[a, b]| DVec2::new(a, b))
+        .find(|r| active.iter().all(|e| e.side_at(r.x as f32, r.y as f32).abs() > 4.0 * e.band))
+        .ok_or(Fallback::Unsigned)
+}
+
 /// The two origins a point's rays start from: above its geometric tangent plane (every
 /// sample over that plane), and below it (the samples under it: the light seen past a
 /// smoothed normal). Each side is counted on its own, from its own origin, with its own ray.
@@ -205,7 +220,7 @@ fn one_ray(
     if !(s.active.is_empty() && s.regions.is_empty()) {
         return Ok(None);
     }
-    let Some(first) = samples.first() else { return Ok(None) };
+    let Some(first) = samples.at(0) else { return Ok(None) };
     plugin.counters.rays.fetch_add(1, Ordering::Relaxed);
     Ok(Some(if samples.occluded(scene, &first) { 0.0 } else { 1.0 }))
 }
@@ -274,7 +289,12 @@ fn side_edges(plugin: &Silhouette, scene: &Scene, side: &Side, s: &mut Scratch) 
 
 /// The counts of one side's samples from its edges ([`side_edges`]), and which of them must
 /// be traced.
-fn side_counts(plugin: &Silhouette, side: &Side, samples: &PointSamples, s: &mut Scratch) -> Result<(), Fallback> {
+fn side_counts(
+    plugin: &Silhouette,
+    side: &Side,
+    samples: &PointSamples,
+    s: &mut Scratch,
+) -> Result<(), Fallback> {
     let light = plugin.light();
     let cover = shaft::Cover::new(&side.point, side.origin, light.max_point_error());
     // This side's samples the counting cannot answer for are traced.
@@ -296,11 +316,7 @@ fn side_counts(plugin: &Silhouette, side: &Side, samples: &PointSamples, s: &mut
     if s.active.is_empty() {
         return Ok(());
     }
-    let r = REFERENCES
-        .iter()
-        .map(|&[a, b]| DVec2::new(a, b))
-        .find(|r| s.active.iter().all(|e| e.side_at(r.x as f32, r.y as f32).abs() > 4.0 * e.band))
-        .ok_or(Fallback::Unsigned)?;
+    let r = reference(&s.active)?;
     s.bin(samples.strata(), side.below);
     let grid = samples.strata();
     let grid = (grid.0 as usize, grid.1 as usize);
@@ -351,6 +367,82 @@ fn lit_count(
     }
 }
 
+/// [`count`] cell by cell ([`super::cells`]), for a point [`wholly_above`] with no flagged
+/// triangle in its shaft and its edges in `s`: `None` if a sample it draws falls below the
+/// shading horizon after all (then the samples are drawn and counted one by one).
+fn count_cells(
+    plugin: &Silhouette,
+    scene: &Scene,
+    samples: &PointSamples,
+    s: &mut Scratch,
+) -> Result<Option<f32>, Fallback> {
+    let r = reference(&s.active)?;
+    let (nx, ny) = samples.strata();
+    let (grid, cells) = ((nx as usize, ny as usize), (nx * ny) as usize);
+    let Scratch { active, a, b, grid_rel: rel, near, drawn, .. } = s;
+    for v in [&mut *a, &mut *b] {
+        v.clear();
+        v.resize(cells, f32::NAN);
+    }
+    rel.clear();
+    rel.resize(cells, 0);
+    near.clear();
+    near.resize(cells, 0);
+    drawn.clear();
+    drawn.resize(cells, false);
+    let mut below_horizon = false;
+    for e in active.iter() {
+        edge_verdicts(e, r, grid, |cell, verdict| match verdict {
+            Verdict::Nothing => {}
+            Verdict::Step(step) => rel[cell] += step,
+            Verdict::Exact => {
+                if !drawn[cell] {
+                    drawn[cell] = true;
+                    match samples.at(cell as u32) {
+                        Some(x) => (a[cell], b[cell]) = (x.a, x.b),
+                        None => below_horizon = true,
+                    }
+                }
+                let counts = Counts { a: &a[..], b: &b[..], rel: &mut rel[..], near: &mut near[..] };
+                count_edge(e, r, cell..cell + 1, counts);
+            }
+        });
+    }
+    if below_horizon {
+        return Ok(None);
+    }
+    // The lowest count's first cell (the sample the one-by-one counting would aim at), and
+    // its ray.
+    let c = &plugin.counters;
+    let mut rays = 0u64;
+    let m = (0..cells).filter(|&k| near[k] == 0).min_by_key(|&k| rel[k]);
+    let lit = match m.map(|m| (m, samples.at(m as u32))) {
+        Some((m, Some(x))) => {
+            rays += 1;
+            (!samples.occluded(scene, &x)).then_some(rel[m])
+        }
+        Some((_, None)) => return Ok(None),
+        None => None,
+    };
+    let (mut visible, mut uncertain) = (0u32, 0u64);
+    for k in 0..cells {
+        if near[k] != 0 {
+            let Some(x) = samples.at(k as u32) else { return Ok(None) };
+            uncertain += 1;
+            rays += 1;
+            visible += !samples.occluded(scene, &x) as u32;
+        } else {
+            visible += (Some(rel[k]) == lit) as u32;
+        }
+    }
+    if lit.is_none() && uncertain < cells as u64 {
+        c.points_umbra.fetch_add(1, Ordering::Relaxed);
+    }
+    c.rays.fetch_add(rays, Ordering::Relaxed);
+    c.samples_uncertain.fetch_add(uncertain, Ordering::Relaxed);
+    Ok(Some(visible as f32 / cells as f32))
+}
+
 /// The visibility of `q` from its silhouette edges, or why the point must be traced whole.
 pub(super) fn count(
     plugin: &Silhouette,
@@ -363,6 +455,12 @@ pub(super) fn count(
         let light = plugin.light();
         let gathered = wholly_above(light, q, samples);
         if gathered && let Some(v) = one_ray(plugin, scene, q, samples, s)? {
+            return Ok(v);
+        }
+        if gathered
+            && s.regions.is_empty()
+            && let Some(v) = count_cells(plugin, scene, samples, s)?
+        {
             return Ok(v);
         }
         let mut rays = 0u64;
