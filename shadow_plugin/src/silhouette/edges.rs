@@ -17,9 +17,9 @@
 //! is traced.
 
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 use renderer::geometry::material::AlphaMode;
 use renderer::{RectLight, Scene};
-use std::collections::HashMap;
 
 /// Triangle flags: what a point whose shaft meets the triangle must do.
 pub const ALPHA: u8 = 1;
@@ -110,68 +110,95 @@ impl EdgeSet {
         set
     }
 
-    /// Welds vertices at bit-identical positions (-0.0 and 0.0 are one).
+    /// Welds vertices at bit-identical positions (-0.0 and 0.0 are one): the corners sorted
+    /// by position (in parallel; ties by corner, so the ids are the same on every run), one
+    /// id per run of equal positions. Measured on metal-rough-spheres (3.1 M corners): a hash
+    /// map took 210 ms.
     fn weld(&mut self, scene: &Scene) {
-        let mut index: HashMap<[u32; 3], u32> = HashMap::with_capacity(scene.triangles.len());
-        self.corners = Vec::with_capacity(scene.triangles.len());
-        for tri in &scene.triangles {
-            let mut c = [0u32; 3];
-            for (k, v) in [tri.v0, tri.v1, tri.v2].into_iter().enumerate() {
-                let v = Vec3::from(v) + Vec3::ZERO; // -0.0 + 0.0 = 0.0
-                let key = [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
-                let next = self.vertices.len() as u32;
-                c[k] = *index.entry(key).or_insert_with(|| next);
-                if c[k] == next {
-                    self.vertices.push(v);
-                }
+        // Position bits and corner index packed in one u128: one integer comparison.
+        let key = |v: [f32; 3], corner: usize| {
+            let v = Vec3::from(v) + Vec3::ZERO; // -0.0 + 0.0 = 0.0
+            let p = ((v.x.to_bits() as u128) << 64) | ((v.y.to_bits() as u128) << 32) | v.z.to_bits() as u128;
+            (p << 32) | corner as u128
+        };
+        let mut keyed: Vec<u128> = scene
+            .triangles
+            .par_iter()
+            .enumerate()
+            .flat_map_iter(|(t, tri)| {
+                [tri.v0, tri.v1, tri.v2].into_iter().enumerate().map(move |(k, v)| key(v.into(), 3 * t + k))
+            })
+            .collect();
+        keyed.par_sort_unstable();
+        let mut corners = vec![0u32; keyed.len()];
+        for (n, &k) in keyed.iter().enumerate() {
+            let position = k >> 32;
+            if n == 0 || keyed[n - 1] >> 32 != position {
+                let bits = [(position >> 64) as u32, (position >> 32) as u32, position as u32];
+                self.vertices.push(Vec3::from_array(bits.map(f32::from_bits)));
             }
-            self.corners.push(c);
+            corners[k as u32 as usize] = self.vertices.len() as u32 - 1;
         }
+        self.corners = corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     }
 
     /// Every edge of the opaque, non-degenerate triangles with its incident triangles; keeps
     /// the potential silhouette edges.
     fn link_edges(&mut self, light: &RectLight) {
         // (a, b, third, whether the triangle's winding runs a -> b) for every triangle side,
-        // sorted by edge.
-        let mut sides: Vec<(u32, u32, u32, bool)> = Vec::with_capacity(3 * self.corners.len());
+        // sorted by edge: packed in one u128 (one integer comparison) for the sort.
+        let mut packed: Vec<u128> = Vec::with_capacity(3 * self.corners.len());
         for (slot, c) in self.corners.iter().enumerate() {
             if self.flags[slot] != 0 {
                 continue;
             }
             for k in 0..3 {
                 let (a, b, third) = (c[k], c[(k + 1) % 3], c[(k + 2) % 3]);
-                sides.push((a.min(b), a.max(b), third, a < b));
+                let (lo, hi) = (a.min(b) as u128, a.max(b) as u128);
+                packed.push((lo << 96) | (hi << 64) | ((third as u128) << 32) | (a < b) as u128);
             }
         }
-        sides.sort_unstable();
+        packed.par_sort_unstable();
+        let sides: Vec<(u32, u32, u32, bool)> = packed
+            .iter()
+            .map(|&p| ((p >> 96) as u32, (p >> 64) as u32, (p >> 32) as u32, p as u32 != 0))
+            .collect();
         let corners = light_corners_grown(light);
+        // The runs of sides on one edge, then which edges to keep (in parallel: 1.5 M plane
+        // tests on metal-rough-spheres), then the kept ones in order.
+        let mut runs = Vec::new();
         let mut i = 0;
         while i < sides.len() {
-            let (a, b) = (sides[i].0, sides[i].1);
-            let mut j = i;
-            while j < sides.len() && (sides[j].0, sides[j].1) == (a, b) {
+            let mut j = i + 1;
+            while j < sides.len() && (sides[j].0, sides[j].1) == (sides[i].0, sides[i].1) {
                 j += 1;
             }
+            runs.push((i as u32, j as u32));
+            i = j;
+        }
+        let keep: Vec<bool> = runs
+            .par_iter()
+            .map(|&(i, j)| {
+                let (i, j) = (i as usize, j as usize);
+                j - i != 2
+                    || self.silhouette_somewhere(sides[i].0, sides[i].1, sides[i].2, sides[i + 1].2, &corners)
+            })
+            .collect();
+        for (&(i, j), keep) in runs.iter().zip(keep) {
+            let (i, j) = (i as usize, j as usize);
+            let (a, b) = (sides[i].0, sides[i].1);
             self.stats.edges += 1;
             let count = j - i;
-            let keep = match count {
-                1 => {
-                    self.stats.boundary += 1;
-                    true
-                }
-                2 => self.silhouette_somewhere(a, b, sides[i].2, sides[i + 1].2, &corners),
-                _ => {
-                    self.stats.non_manifold += 1;
-                    true
-                }
-            };
+            match count {
+                1 => self.stats.boundary += 1,
+                2 => {}
+                _ => self.stats.non_manifold += 1,
+            }
             if keep {
                 self.edges.push(Edge { a, b, first: self.thirds.len() as u32, count: count as u32 });
                 self.thirds.extend(sides[i..j].iter().map(|s| s.2));
                 self.forward.push(sides[i].3);
             }
-            i = j;
         }
         self.stats.potential = self.edges.len() as u64;
     }
