@@ -1,0 +1,262 @@
+//! Alpha-masked triangles classified by every alpha the intersector's test can read on them
+//! (`Scene::hit_distance`: `Material::is_cutout` at the hit's interpolated UV), so that only
+//! the ones whose test can go either way are left out of the counting.
+//!
+//! A ray meeting a triangle reads the alpha at `uv = b0 uv0 + b1 uv1 + b2 uv2` (f32, the
+//! barycentrics of the f32 ray test), through the material's texture transform, bilinear
+//! over the texels around it with the sampler's wrap modes, times `base_color.w`. So every
+//! value it can read lies between the lowest and highest texel alpha of the texels a lookup
+//! can touch over the triangle's UV footprint (the bounding box of its transformed UVs,
+//! grown by a texel and by a bound on the f32 rounding), widened by the filter's rounding
+//! (`lerp` is `a (1 - s) + b s`: 1.0 between two texels of alpha 1.0 may read 1 - 2^-24).
+//! Every texel alpha at or above the cutoff with that margin: the test never cuts a hole,
+//! the triangle is opaque. Every one below it with that margin: the test always cuts a
+//! hole, no ray ever stops on it, and it is dropped. Otherwise it is mixed.
+
+use glam::{DVec2, Vec2};
+use rayon::prelude::*;
+use renderer::Scene;
+use renderer::geometry::material::{AlphaMode, Material, Texture, TextureRef, Wrap};
+
+/// What a triangle's alpha test does to the rays that meet it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AlphaClass {
+    /// Its material has no alpha test.
+    NoTest,
+    /// The test never cuts a hole in it: it blocks like an opaque triangle.
+    Opaque,
+    /// The test always cuts a hole: no ray ever stops on it.
+    Clear,
+    /// Either, depending on where the ray meets it.
+    Mixed,
+}
+
+/// A footprint of more texels than this is classified by the texture's whole range of
+/// alphas instead (a superset: still exact, coarser), which bounds the work per triangle.
+/// 2^16 reads are ~30 us; real foliage triangles cover a few hundred texels.
+const MAX_FOOTPRINT_TEXELS: usize = 1 << 16;
+
+/// The bilinear filter's rounding on values in [0, 1]: two `lerp`s, each within about 4
+/// ulps of 1.0 (2.4e-7: `1 - s`, two products and a sum), bounded with a fourfold margin.
+const FILTER_ERROR: f64 = 2e-6;
+
+/// Relative bound on the f32 rounding of the interpolated, transformed and scaled UV (the
+/// barycentrics' sum is within 2^-22 of 1, each of the ~8 operations rounds by 2^-24:
+/// about 2e-6 of the magnitudes involved), with a fivefold margin.
+const UV_ERROR: f64 = 1e-5;
+
+/// Beyond this magnitude (in texels) a footprint is not computed (its integer texel indices
+/// would overflow): the texture's whole range is used.
+const MAX_TEXEL_COORDINATE: f64 = (1u64 << 40) as f64;
+
+/// Bits of a texel alpha's class for one material: every value the filter can make near it
+/// passes the test (`SOLID`), or every one fails it (`HOLE`); 0 if neither is certain.
+const SOLID: u8 = 1;
+const HOLE: u8 = 2;
+
+/// The class of every triangle slot of `scene` (BVH order). Parallel over the triangles;
+/// the answer does not depend on the thread count.
+pub fn classify(scene: &Scene) -> Vec<AlphaClass> {
+    let mut ranges: Vec<Option<[bool; 256]>> = vec![None; scene.textures.len()];
+    let materials: Vec<MaterialAlpha> =
+        scene.materials.iter().map(|m| MaterialAlpha::new(m, &scene.textures, &mut ranges)).collect();
+    (0..scene.triangles.len())
+        .into_par_iter()
+        .with_min_len(1024)
+        .map_init(Footprint::default, |footprint, slot| {
+            let shading = &scene.shading[slot];
+            materials[shading.material as usize].classify(shading.uv, &scene.textures, footprint)
+        })
+        .collect()
+}
+
+/// One material's alpha test, ready to classify triangles.
+#[derive(Debug)]
+pub enum MaterialAlpha {
+    /// The same class on every triangle: no test, a constant alpha (no texture), or a
+    /// texture whose every texel has one class.
+    Uniform(AlphaClass),
+    Textured(Box<TexturedAlpha>),
+}
+
+/// A textured alpha test: its texture reference, and each 8-bit texel alpha's class bits.
+#[derive(Debug)]
+pub struct TexturedAlpha {
+    material: Material,
+    texture: TextureRef,
+    classes: [u8; 256],
+    /// The class of a lookup that may read any texel (a footprint too large to scan).
+    whole: AlphaClass,
+}
+
+impl MaterialAlpha {
+    /// The test of `material`; `ranges` caches, per texture, which alpha codes it holds.
+    pub fn new(material: &Material, textures: &[Texture], ranges: &mut [Option<[bool; 256]>]) -> Self {
+        let AlphaMode::Mask { cutoff } = material.alpha else { return Self::Uniform(AlphaClass::NoTest) };
+        let Some(texture) = material.base_color_texture else {
+            // A constant alpha: the renderer's own test, at any UV, is the answer.
+            return Self::Uniform(exact_class(material, Vec2::ZERO, textures));
+        };
+        let image = &textures[texture.texture as usize];
+        if image.width == 0 || image.height == 0 {
+            return Self::Uniform(AlphaClass::Mixed);
+        }
+        let classes = std::array::from_fn(|code| texel_class(material.base_color.w, cutoff, code as u8));
+        let present = ranges[texture.texture as usize].get_or_insert_with(|| {
+            let mut present = [false; 256];
+            for texel in &image.rgba8 {
+                present[texel[3] as usize] = true;
+            }
+            present
+        });
+        let all = (0..256).filter(|&c| present[c]).fold(SOLID | HOLE, |acc, c| acc & classes[c]);
+        let whole = class_of(all);
+        if whole != AlphaClass::Mixed {
+            return Self::Uniform(whole);
+        }
+        Self::Textured(Box::new(TexturedAlpha { material: *material, texture, classes, whole }))
+    }
+
+    /// The class of a triangle with texture coordinates `uv`.
+    pub fn classify(&self, uv: [Vec2; 3], textures: &[Texture], footprint: &mut Footprint) -> AlphaClass {
+        match self {
+            Self::Uniform(class) => *class,
+            Self::Textured(t) => t.classify(uv, textures, footprint),
+        }
+    }
+}
+
+impl TexturedAlpha {
+    fn classify(&self, uv: [Vec2; 3], textures: &[Texture], footprint: &mut Footprint) -> AlphaClass {
+        let image = &textures[self.texture.texture as usize];
+        match footprint.fill(&self.texture, image, uv) {
+            Reads::TexelZero => exact_class(&self.material, Vec2::NAN, textures),
+            Reads::Any => self.whole,
+            Reads::Texels => {
+                let width = image.width as usize;
+                let mut acc = SOLID | HOLE;
+                for &y in &footprint.rows {
+                    let row = &image.rgba8[y * width..(y + 1) * width];
+                    for &x in &footprint.columns {
+                        acc &= self.classes[row[x][3] as usize];
+                    }
+                    if acc == 0 {
+                        return AlphaClass::Mixed;
+                    }
+                }
+                class_of(acc)
+            }
+        }
+    }
+}
+
+/// The renderer's own test at `uv`, as the class of a triangle that reads only that value.
+fn exact_class(material: &Material, uv: Vec2, textures: &[Texture]) -> AlphaClass {
+    if material.is_cutout(uv, textures) { AlphaClass::Clear } else { AlphaClass::Opaque }
+}
+
+fn class_of(bits: u8) -> AlphaClass {
+    match bits {
+        SOLID => AlphaClass::Opaque,
+        HOLE => AlphaClass::Clear,
+        _ => AlphaClass::Mixed,
+    }
+}
+
+/// The class bits of the 8-bit texel alpha `code` (read as `code as f32 / 255.0`) under
+/// `alpha = w * filtered` against `cutoff`: the filtered value is within [`FILTER_ERROR`]
+/// of the texels' range, and the product rounds once more (relative 2^-24).
+fn texel_class(w: f32, cutoff: f32, code: u8) -> u8 {
+    if !(w.is_finite() && cutoff.is_finite()) {
+        return 0;
+    }
+    let (w, cutoff) = (w as f64, cutoff as f64);
+    let s = code as f64 / 255.0;
+    let (a, b) = (w * (s - FILTER_ERROR), w * (s + FILTER_ERROR));
+    let margin = FILTER_ERROR * w.abs();
+    if a.min(b) - margin >= cutoff {
+        SOLID
+    } else if a.max(b) + margin < cutoff {
+        HOLE
+    } else {
+        0
+    }
+}
+
+/// What a triangle's lookups can read.
+enum Reads {
+    /// Texel (0, 0) only: non-finite coordinates (or transform) make every lookup's
+    /// coordinate non-finite, and `Texture::sample` then reads that texel alone.
+    TexelZero,
+    /// The texels at `Footprint::rows` x `Footprint::columns`.
+    Texels,
+    /// Possibly any texel.
+    Any,
+}
+
+/// The texel rows and columns a triangle's lookups can touch (scratch, reused).
+#[derive(Default)]
+pub struct Footprint {
+    rows: Vec<usize>,
+    columns: Vec<usize>,
+}
+
+impl Footprint {
+    fn fill(&mut self, texture: &TextureRef, image: &Texture, uv: [Vec2; 3]) -> Reads {
+        let m = texture.transform.matrix2;
+        let t = texture.transform.translation;
+        let finite =
+            uv.iter().all(|p| p.is_finite()) && m.x_axis.is_finite() && m.y_axis.is_finite() && t.is_finite();
+        if !finite {
+            return Reads::TexelZero;
+        }
+        let uv = uv.map(|p| p.as_dvec2());
+        let (m, t) = ([m.x_axis.as_dvec2(), m.y_axis.as_dvec2()], t.as_dvec2());
+        let magnitude = uv.iter().fold(DVec2::ZERO, |acc, p| acc.max(p.abs()));
+        // Texel coordinates `uv' * size - 0.5` of the corners (in f64), and a bound on the
+        // magnitudes the f32 evaluation goes through.
+        let size = DVec2::new(image.width as f64, image.height as f64);
+        let corners = uv.map(|p| (m[0] * p.x + m[1] * p.y + t) * size - 0.5);
+        let scale = (m[0].abs() * magnitude.x + m[1].abs() * magnitude.y + t.abs()) * size + 0.5;
+        // (Finite: f32 inputs cannot overflow these f64 products.)
+        if scale.max_element() >= MAX_TEXEL_COORDINATE {
+            return Reads::Any;
+        }
+        let lo = corners.iter().fold(DVec2::INFINITY, |acc, &c| acc.min(c));
+        let hi = corners.iter().fold(DVec2::NEG_INFINITY, |acc, &c| acc.max(c));
+        let grow = 1.0 + UV_ERROR * scale;
+        let (lo, hi) = (lo - grow, hi + grow);
+        let wraps = [texture.wrap_s, texture.wrap_t];
+        axis(lo.x, hi.x, image.width, wraps[0], &mut self.columns);
+        axis(lo.y, hi.y, image.height, wraps[1], &mut self.rows);
+        if self.columns.len() * self.rows.len() > MAX_FOOTPRINT_TEXELS {
+            return Reads::Any;
+        }
+        Reads::Texels
+    }
+}
+
+/// The texel indices along one axis that a lookup at a coordinate in [lo, hi] can touch
+/// (`floor(x)` and the next, wrapped), each once.
+fn axis(lo: f64, hi: f64, size: u32, wrap: Wrap, out: &mut Vec<usize>) {
+    out.clear();
+    let n = size as i64;
+    let (first, last) = (lo.floor() as i64, hi.floor() as i64 + 1);
+    let (first, last, period) = match wrap {
+        Wrap::ClampToEdge => (first.clamp(0, n - 1), last.clamp(0, n - 1), i64::MAX),
+        Wrap::Repeat => (first, last, n),
+        Wrap::MirroredRepeat => (first, last, 2 * n),
+    };
+    // A whole period reads every texel.
+    if last - first + 1 >= period {
+        out.extend(0..size as usize);
+        return;
+    }
+    out.extend((first..=last).map(|i| wrap.index(i, size)));
+    out.sort_unstable();
+    out.dedup();
+}
+
+#[cfg(test)]
+#[path = "alpha_tests.rs"]
+mod tests;
