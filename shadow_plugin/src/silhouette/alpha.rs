@@ -6,9 +6,10 @@
 //! barycentrics of the f32 ray test), through the material's texture transform, bilinear
 //! over the texels around it with the sampler's wrap modes, times `base_color.w`. So every
 //! value it can read lies between the lowest and highest texel alpha of the texels a lookup
-//! can touch over the triangle's UV footprint (the bounding box of its transformed UVs,
-//! grown by a texel and by a bound on the f32 rounding), widened by the filter's rounding
-//! (`lerp` is `a (1 - s) + b s`: 1.0 between two texels of alpha 1.0 may read 1 - 2^-24).
+//! can touch over the triangle's UV footprint (its transformed UVs, grown by a texel and by
+//! a bound on the f32 rounding; row by row, so that a thin diagonal triangle is not charged
+//! for its bounding box), widened by the filter's rounding (`lerp` is `a (1 - s) + b s`:
+//! between two texels of alpha `a` it may read just under `a`).
 //! Every texel alpha at or above the cutoff with that margin: the test never cuts a hole,
 //! the triangle is opaque. Every one below it with that margin: the test always cuts a
 //! hole, no ray ever stops on it, and it is dropped. Otherwise it is mixed.
@@ -135,9 +136,9 @@ impl TexturedAlpha {
             Reads::Texels => {
                 let width = image.width as usize;
                 let mut acc = SOLID | HOLE;
-                for &y in &footprint.rows {
+                for &(y, start, end) in &footprint.rows {
                     let row = &image.rgba8[y * width..(y + 1) * width];
-                    for &x in &footprint.columns {
+                    for &x in &footprint.columns[start..end] {
                         acc &= self.classes[row[x][3] as usize];
                     }
                     if acc == 0 {
@@ -188,17 +189,21 @@ enum Reads {
     /// Texel (0, 0) only: non-finite coordinates (or transform) make every lookup's
     /// coordinate non-finite, and `Texture::sample` then reads that texel alone.
     TexelZero,
-    /// The texels at `Footprint::rows` x `Footprint::columns`.
+    /// The texels of `Footprint::rows`.
     Texels,
     /// Possibly any texel.
     Any,
 }
 
-/// The texel rows and columns a triangle's lookups can touch (scratch, reused).
+/// The texels a triangle's lookups can touch (scratch, reused).
 #[derive(Default)]
 pub struct Footprint {
-    rows: Vec<usize>,
+    /// Per texel row met (a row may come twice, wrapped): the row, and the range of
+    /// `columns` holding the columns met in it.
+    rows: Vec<(usize, usize, usize)>,
     columns: Vec<usize>,
+    /// One row's columns before they join `columns`.
+    row: Vec<usize>,
 }
 
 impl Footprint {
@@ -222,18 +227,51 @@ impl Footprint {
         if scale.max_element() >= MAX_TEXEL_COORDINATE {
             return Reads::Any;
         }
-        let lo = corners.iter().fold(DVec2::INFINITY, |acc, &c| acc.min(c));
-        let hi = corners.iter().fold(DVec2::NEG_INFINITY, |acc, &c| acc.max(c));
+        // Every f32 lookup lies within `grow` of the triangle (the rounding bound, and a
+        // texel more to spare).
         let grow = 1.0 + UV_ERROR * scale;
-        let (lo, hi) = (lo - grow, hi + grow);
-        let wraps = [texture.wrap_s, texture.wrap_t];
-        axis(lo.x, hi.x, image.width, wraps[0], &mut self.columns);
-        axis(lo.y, hi.y, image.height, wraps[1], &mut self.rows);
-        if self.columns.len() * self.rows.len() > MAX_FOOTPRINT_TEXELS {
+        let lo = corners.iter().fold(f64::INFINITY, |acc, c| acc.min(c.y)) - grow.y;
+        let hi = corners.iter().fold(f64::NEG_INFINITY, |acc, c| acc.max(c.y)) + grow.y;
+        let (first, last) = (lo.floor() as i64, hi.floor() as i64 + 1);
+        if last - first >= MAX_FOOTPRINT_TEXELS as i64 {
             return Reads::Any;
+        }
+        self.rows.clear();
+        self.columns.clear();
+        for j in first..=last {
+            // Lookups touch row j from texel heights in [j - 1, j + 1] (`floor(y)` and the
+            // next): the grown triangle's span over that slab.
+            let slab = (j as f64 - 1.0 - grow.y, j as f64 + 1.0 + grow.y);
+            let Some((x0, x1)) = span(&corners, slab) else { continue };
+            axis(x0 - grow.x, x1 + grow.x, image.width, texture.wrap_s, &mut self.row);
+            let start = self.columns.len();
+            self.columns.extend_from_slice(&self.row);
+            self.rows.push((texture.wrap_t.index(j, image.height), start, self.columns.len()));
+            if self.columns.len() > MAX_FOOTPRINT_TEXELS {
+                return Reads::Any;
+            }
         }
         Reads::Texels
     }
+}
+
+/// The x extent of the triangle `c` between heights `slab.0` and `slab.1` (a convex
+/// polygon's extent there is reached at its corners inside or where its sides cross).
+fn span(c: &[DVec2; 3], (y0, y1): (f64, f64)) -> Option<(f64, f64)> {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for k in 0..3 {
+        let (a, b) = (c[k], c[(k + 1) % 3]);
+        if (y0..=y1).contains(&a.y) {
+            (lo, hi) = (lo.min(a.x), hi.max(a.x));
+        }
+        for y in [y0, y1] {
+            if (a.y < y) != (b.y < y) {
+                let x = a.x + (y - a.y) / (b.y - a.y) * (b.x - a.x);
+                (lo, hi) = (lo.min(x), hi.max(x));
+            }
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
 }
 
 /// The texel indices along one axis that a lookup at a coordinate in [lo, hi] can touch

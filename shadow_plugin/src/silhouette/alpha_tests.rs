@@ -44,6 +44,21 @@ fn triangles_in_each_half_and_across() {
     assert_eq!(class(&m, &t, tri(0.505, 0.9)), AlphaClass::Mixed);
 }
 
+/// Clear below the diagonal (column < row), opaque above it: a thin triangle along the
+/// diagonal on the opaque side is opaque, though its bounding box holds clear texels.
+#[test]
+fn the_footprint_follows_the_triangle_not_its_bounding_box() {
+    let rgba8 = (0..64 * 64).map(|i| if i % 64 < i / 64 { [0; 4] } else { [255; 4] }).collect();
+    let t = [Texture { width: 64, height: 64, rgba8 }];
+    let m = masked(Wrap::ClampToEdge, Affine2::IDENTITY, 1.0, 0.5);
+    let thin = [Vec2::new(0.22, 0.02), Vec2::new(0.98, 0.78), Vec2::new(0.98, 0.02)];
+    assert_eq!(class(&m, &t, thin), AlphaClass::Opaque);
+    let across = [Vec2::new(0.1, 0.02), Vec2::new(0.98, 0.9), Vec2::new(0.5, 0.6)];
+    assert_eq!(class(&m, &t, across), AlphaClass::Mixed);
+    let under = [Vec2::new(0.02, 0.22), Vec2::new(0.78, 0.98), Vec2::new(0.02, 0.98)];
+    assert_eq!(class(&m, &t, under), AlphaClass::Clear);
+}
+
 #[test]
 fn wrap_modes_map_the_footprint() {
     let t = [half()];
@@ -148,14 +163,27 @@ fn classes_agree_with_the_test_at_every_probed_hit() {
     let mut r = move || rng.next_f32();
     let codes = [0u8, 60, 127, 128, 129, 200, 255];
     let mut seen = [0u32; 2];
-    for case in 0..400 {
-        let (w, h) = (1 + (r() * 9.0) as u32, 1 + (r() * 9.0) as u32);
-        // Blocks of one alpha, so that small footprints are often of one class.
-        let block = codes[(r() * 7.0) as usize];
-        let rgba8 = (0..w * h)
-            .map(|i| [0, 0, 0, if (i % w) < w / 2 { block } else { codes[(r() * 7.0) as usize] }])
-            .collect();
-        let t = [Texture { width: w, height: h, rgba8 }];
+    for case in 0..800 {
+        let t = [if case % 2 == 0 {
+            // Blocks of one alpha, so that small footprints are often of one class.
+            let (w, h) = (1 + (r() * 9.0) as u32, 1 + (r() * 9.0) as u32);
+            let block = codes[(r() * 7.0) as usize];
+            let rgba8 = (0..w * h)
+                .map(|i| [0, 0, 0, if (i % w) < w / 2 { block } else { codes[(r() * 7.0) as usize] }])
+                .collect();
+            Texture { width: w, height: h, rgba8 }
+        } else {
+            // Clear on one side of a random line, opaque on the other: triangles along it
+            // test the footprint's rows.
+            let (a, b, c) = (r() - 0.5, r() - 0.5, 16.0 * (r() - 0.5));
+            let rgba8 = (0..32 * 32)
+                .map(|i| {
+                    let (x, y) = ((i % 32) as f32 - 16.0, (i / 32) as f32 - 16.0);
+                    [0, 0, 0, if a * x + b * y < c { 0 } else { 255 }]
+                })
+                .collect();
+            Texture { width: 32, height: 32, rgba8 }
+        }];
         let wrap = [Wrap::Repeat, Wrap::MirroredRepeat, Wrap::ClampToEdge][case % 3];
         let transform = if case % 4 == 0 { Affine2::from_angle(r() * 6.0) } else { Affine2::IDENTITY };
         let m = masked(wrap, transform, [1.0, 0.8, 0.5][case % 3], [0.5, 0.25, 0.5, 0.0][case % 4]);
@@ -177,5 +205,5 @@ fn classes_agree_with_the_test_at_every_probed_hit() {
             }
         }
     }
-    assert!(seen[0] > 20 && seen[1] > 20, "too few opaque ({}) or clear ({}) cases", seen[0], seen[1]);
+    assert!(seen[0] > 100 && seen[1] > 100, "too few opaque ({}) or clear ({}) cases", seen[0], seen[1]);
 }
