@@ -41,9 +41,10 @@ const MAX_FOOTPRINT_TEXELS: usize = 1 << 16;
 /// ulps of 1.0 (2.4e-7: `1 - s`, two products and a sum), bounded with a fourfold margin.
 const FILTER_ERROR: f64 = 2e-6;
 
-/// Relative bound on the f32 rounding of the interpolated, transformed and scaled UV (the
-/// barycentrics' sum is within 2^-22 of 1, each of the ~8 operations rounds by 2^-24:
-/// about 2e-6 of the magnitudes involved), with a fivefold margin.
+/// Relative bound on the f32 rounding of the interpolated, transformed and scaled UV, per
+/// axis, against the magnitudes the evaluation goes through: the barycentrics (b0 = 1 - b1 -
+/// b2 may be a rounding under 0; their sum within ~2^-23 of 1) and the ~8 roundings of 2^-24
+/// come to about 1e-6; bounded with a tenfold margin (and a whole texel more beside it).
 const UV_ERROR: f64 = 1e-5;
 
 /// Beyond this magnitude (in texels) a footprint is not computed (its integer texel indices
@@ -77,6 +78,7 @@ pub enum MaterialAlpha {
     /// The same class on every triangle: no test, a constant alpha (no texture), or a
     /// texture whose every texel has one class.
     Uniform(AlphaClass),
+    /// Classified triangle by triangle, over its footprint.
     Textured(Box<TexturedAlpha>),
 }
 
@@ -136,10 +138,9 @@ impl TexturedAlpha {
             Reads::Texels => {
                 let width = image.width as usize;
                 let mut acc = SOLID | HOLE;
-                for &(y, start, end) in &footprint.rows {
-                    let row = &image.rgba8[y * width..(y + 1) * width];
-                    for &x in &footprint.columns[start..end] {
-                        acc &= self.classes[row[x][3] as usize];
+                for &(y, x0, x1) in &footprint.runs {
+                    for texel in &image.rgba8[y * width + x0..=y * width + x1] {
+                        acc &= self.classes[texel[3] as usize];
                     }
                     if acc == 0 {
                         return AlphaClass::Mixed;
@@ -189,7 +190,7 @@ enum Reads {
     /// Texel (0, 0) only: non-finite coordinates (or transform) make every lookup's
     /// coordinate non-finite, and `Texture::sample` then reads that texel alone.
     TexelZero,
-    /// The texels of `Footprint::rows`.
+    /// The texels of `Footprint::runs`.
     Texels,
     /// Possibly any texel.
     Any,
@@ -198,12 +199,9 @@ enum Reads {
 /// The texels a triangle's lookups can touch (scratch, reused).
 #[derive(Default)]
 pub struct Footprint {
-    /// Per texel row met (a row may come twice, wrapped): the row, and the range of
-    /// `columns` holding the columns met in it.
-    rows: Vec<(usize, usize, usize)>,
-    columns: Vec<usize>,
-    /// One row's columns before they join `columns`.
-    row: Vec<usize>,
+    /// Runs of texels (row, first column, last column), up to three per row met (wrapped
+    /// around the texture's edges); a texel may be met twice.
+    runs: Vec<(usize, usize, usize)>,
 }
 
 impl Footprint {
@@ -236,18 +234,20 @@ impl Footprint {
         if last - first >= MAX_FOOTPRINT_TEXELS as i64 {
             return Reads::Any;
         }
-        self.rows.clear();
-        self.columns.clear();
+        self.runs.clear();
+        let mut texels = 0;
         for j in first..=last {
             // Lookups touch row j from texel heights in [j - 1, j + 1] (`floor(y)` and the
             // next): the grown triangle's span over that slab.
             let slab = (j as f64 - 1.0 - grow.y, j as f64 + 1.0 + grow.y);
             let Some((x0, x1)) = span(&corners, slab) else { continue };
-            axis(x0 - grow.x, x1 + grow.x, image.width, texture.wrap_s, &mut self.row);
-            let start = self.columns.len();
-            self.columns.extend_from_slice(&self.row);
-            self.rows.push((texture.wrap_t.index(j, image.height), start, self.columns.len()));
-            if self.columns.len() > MAX_FOOTPRINT_TEXELS {
+            let y = texture.wrap_t.index(j, image.height);
+            let (x0, x1) = ((x0 - grow.x).floor() as i64, (x1 + grow.x).floor() as i64 + 1);
+            for (a, b) in runs(x0, x1, image.width, texture.wrap_s) {
+                texels += b - a + 1;
+                self.runs.push((y, a, b));
+            }
+            if texels > MAX_FOOTPRINT_TEXELS {
                 return Reads::Any;
             }
         }
@@ -274,25 +274,30 @@ fn span(c: &[DVec2; 3], (y0, y1): (f64, f64)) -> Option<(f64, f64)> {
     (lo <= hi).then_some((lo, hi))
 }
 
-/// The texel indices along one axis that a lookup at a coordinate in [lo, hi] can touch
-/// (`floor(x)` and the next, wrapped), each once.
-fn axis(lo: f64, hi: f64, size: u32, wrap: Wrap, out: &mut Vec<usize>) {
-    out.clear();
+/// The texel indices `wrap` maps the integers `first..=last` to (`floor(x)` and the next of
+/// every lookup's coordinate x), as up to three runs of consecutive indices: every wrap mode
+/// is monotonic over each tile of `size` integers, so each tile's piece maps to the run
+/// between its ends' indices. Reading runs rather than index lists matters: wrapping each texel's index
+/// (a division) was most of the classification's time.
+fn runs(first: i64, last: i64, size: u32, wrap: Wrap) -> impl Iterator<Item = (usize, usize)> {
     let n = size as i64;
-    let (first, last) = (lo.floor() as i64, hi.floor() as i64 + 1);
     let (first, last, period) = match wrap {
-        Wrap::ClampToEdge => (first.clamp(0, n - 1), last.clamp(0, n - 1), i64::MAX),
+        // (Clamped first: the tiles beyond the texture's edges all map to the edge texel.)
+        Wrap::ClampToEdge => (first.clamp(0, n - 1), last.clamp(0, n - 1), n),
         Wrap::Repeat => (first, last, n),
         Wrap::MirroredRepeat => (first, last, 2 * n),
     };
     // A whole period reads every texel.
-    if last - first + 1 >= period {
-        out.extend(0..size as usize);
-        return;
-    }
-    out.extend((first..=last).map(|i| wrap.index(i, size)));
-    out.sort_unstable();
-    out.dedup();
+    let (first, last) = if last - first + 1 >= period { (0, n - 1) } else { (first, last) };
+    let mut i = first;
+    std::iter::from_fn(move || {
+        (i <= last).then(|| {
+            let end = last.min((i.div_euclid(n) + 1) * n - 1);
+            let (a, b) = (wrap.index(i, size), wrap.index(end, size));
+            i = end + 1;
+            (a.min(b), a.max(b))
+        })
+    })
 }
 
 #[cfg(test)]
