@@ -90,23 +90,36 @@ impl ShadowMethod for CheckedMethod {
 
 /// (settled samples checked, samples traced by the method, disagreements, answers differing
 /// from tracing every sample, points whose samples under the geometric tangent plane were
-/// counted).
-fn check(scene: &Path, width: u32, height: u32, samples: u32) -> [u64; 5] {
+/// counted, alpha-tested triangles counted as opaque, dropped as clear, and left out as
+/// mixed).
+fn check(scene: &Path, width: u32, height: u32, samples: u32) -> [u64; 8] {
     let got = checked::counters(
         scene,
         (width, height, samples),
         Arc::new(CheckedMethod),
         "silhouette",
-        ["checked_settled", "checked_traced", "checked_wrong", "answers_differ", "points_counted_below"],
+        [
+            "checked_settled",
+            "checked_traced",
+            "checked_wrong",
+            "answers_differ",
+            "points_counted_below",
+            "triangles_alpha_opaque",
+            "triangles_alpha_clear",
+            "triangles_alpha",
+        ],
     );
     eprintln!(
-        "{}: {} settled, {} traced by the method; {} wrong; {} answers differ; {} points counted below",
+        "{}: {} settled, {} traced by the method; {} wrong; {} answers differ; {} points counted below; alpha-tested triangles: {} opaque, {} clear, {} mixed",
         scene.display(),
         got[0],
         got[1],
         got[2],
         got[3],
-        got[4]
+        got[4],
+        got[5],
+        got[6],
+        got[7]
     );
     got
 }
@@ -115,8 +128,8 @@ fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// Sums the checks over scenes and asserts none disagrees; returns the samples settled.
-fn check_all(scenes: &[PathBuf], width: u32, height: u32, samples: u32) -> [u64; 5] {
+/// Sums the checks over scenes and asserts none disagrees; returns the sums (see [`check`]).
+fn check_all(scenes: &[PathBuf], width: u32, height: u32, samples: u32) -> [u64; 8] {
     let total = checked::summed(scenes, |s| check(s, width, height, samples));
     eprintln!("total: {} settled, {} traced by the method; {} wrong", total[0], total[1], total[2]);
     assert_eq!(total[2], 0, "samples the counting settled that the BVH disagrees with");
@@ -156,7 +169,23 @@ fn soups_heightfields_and_stress_meshes_agree_with_the_bvh() {
     let mut scenes = soups::soups_and_terraces(&dir, 17);
     scenes.extend(soups::stress_soups(&dir, 29));
     scenes.extend(soups::smooth_soups(&dir, 31));
-    let [settled, .., below] = check_all(&scenes, 64, 48, 512);
+    let [settled, _, _, _, below, ..] = check_all(&scenes, 64, 48, 512);
     assert!(settled > 6_000_000, "only {settled} settled samples checked");
     assert!(below > 200, "only {below} points counted from below the tangent plane");
+}
+
+/// Random soups of alpha-masked triangles (a banded texture: clear, noise, opaque; wrapped
+/// and transformed; constant alphas) among opaque ones: every class is met, and every
+/// settled sample agrees with the BVH (opaque ones counted, clear ones dropped, mixed ones
+/// traced).
+#[test]
+fn alpha_masked_soups_agree_with_the_bvh() {
+    let dir = TempDir::new("silhouette-alpha-soups");
+    let scenes = soups::alpha_soups(&dir, 41);
+    let [settled, _, _, _, _, opaque, clear, mixed] = check_all(&scenes, 64, 48, 512);
+    assert!(settled > 2_000_000, "only {settled} settled samples checked");
+    assert!(
+        opaque > 100 && clear > 100 && mixed > 100,
+        "classes met: {opaque} opaque, {clear} clear, {mixed} mixed"
+    );
 }

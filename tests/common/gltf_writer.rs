@@ -179,8 +179,14 @@ impl GltfBuilder {
     /// A texture whose image is the PNG file `uri` (relative to the .gltf), sampled with the
     /// default filtering and clamp-to-edge wrapping.
     pub fn texture_png(&mut self, uri: &str) -> usize {
+        self.texture_png_wrapped(uri, 33071, 33071)
+    }
+
+    /// [`Self::texture_png`] with the sampler's wrap modes (glTF codes: 10497 repeat, 33648
+    /// mirrored repeat, 33071 clamp to edge).
+    pub fn texture_png_wrapped(&mut self, uri: &str, wrap_s: u32, wrap_t: u32) -> usize {
         let image = push(&mut self.images, json!({"uri": uri, "mimeType": "image/png"}));
-        let sampler = push(&mut self.samplers, json!({"wrapS": 33071, "wrapT": 33071}));
+        let sampler = push(&mut self.samplers, json!({"wrapS": wrap_s, "wrapT": wrap_t}));
         push(&mut self.textures, json!({"source": image, "sampler": sampler}))
     }
 

@@ -3,13 +3,12 @@
 
 #![allow(dead_code)] // each test binary uses a different subset
 
-use super::gltf_writer::{GltfBuilder, TempDir};
+use super::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive, write_png_rgba};
 use renderer::util::sampling::Rng;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
-/// Writes a glTF of `tris` (each three points) with one opaque material, or alpha-masked
-/// ones every `alpha_every`-th triangle (never covers).
+/// Writes a glTF of `tris` (each three points) with one opaque material.
 pub fn soup(dir: &TempDir, name: &str, tris: &[[[f32; 3]; 3]]) -> PathBuf {
     let mut g = GltfBuilder::default();
     let positions: Vec<[f32; 3]> = tris.iter().flatten().copied().collect();
@@ -247,4 +246,95 @@ pub fn smooth_soups(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
         .enumerate()
         .map(|(k, &size)| scene_file(dir, &format!("smooth{k}"), &model, size))
         .collect()
+}
+
+/// The materials of [`alpha_soups`]: opaque; the banded texture (repeat, cutoff 0.5); the
+/// same texture rotated, scaled and offset by KHR_texture_transform (mirrored repeat, cutoff
+/// 0.4); a constant alpha under the cutoff (glass as BLEND); a constant alpha over it.
+fn alpha_materials(g: &mut GltfBuilder) -> Vec<usize> {
+    let repeat = g.texture_png_wrapped("bands.png", 10497, 10497);
+    let mirrored = g.texture_png_wrapped("bands.png", 33648, 10497);
+    g.use_extension("KHR_texture_transform");
+    let transform =
+        json!({"KHR_texture_transform": {"offset": [0.2, -0.1], "rotation": 0.3, "scale": [1.5, 0.8]}});
+    [
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1.0]}, "doubleSided": true}),
+        json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": repeat}}, "alphaMode": "MASK",
+            "alphaCutoff": 0.5, "doubleSided": true}),
+        json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": mirrored, "extensions": transform}},
+            "alphaMode": "MASK", "alphaCutoff": 0.4, "doubleSided": true}),
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.15, 0.15, 0.15, 0.3]}, "alphaMode": "BLEND"}),
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.6, 0.7, 0.8]}, "alphaMode": "MASK"}),
+    ]
+    .into_iter()
+    .map(|m| g.material(m))
+    .collect()
+}
+
+/// Positions and texture coordinates, three per triangle.
+#[derive(Default, Clone)]
+struct TexturedTriangles {
+    positions: Vec<[f32; 3]>,
+    uvs: Vec<[f32; 2]>,
+}
+
+/// Four random soups of alpha-masked triangles (with opaque ones, sharing edges with each
+/// other: folds across materials), each under a light of its own size, from `seed`. The
+/// texture `bands.png` is clear over its left third, opaque over its right third and noise
+/// between; each triangle's UVs cover a small random patch of it (wrapped), or now and then
+/// a large one, so that the alpha classes are all met: opaque, clear and mixed.
+pub fn alpha_soups(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
+    let mut rng = Rng::new(seed);
+    let mut r = move || rng.next_f32();
+    let noise: Vec<u8> = (0..64 * 64).map(|_| [0, 100, 255][(r() * 3.0) as usize]).collect();
+    write_png_rgba(&dir.join("bands.png"), 64, 64, |x, y| {
+        let alpha = if x < 21 {
+            0
+        } else if x >= 43 {
+            255
+        } else {
+            noise[(y * 64 + x) as usize]
+        };
+        [200, 180, 90, alpha]
+    });
+    let mut scenes = Vec::new();
+    for k in 0..4 {
+        let scale = [0.05f32, 0.3, 0.6, 0.15][k];
+        let mut parts = vec![TexturedTriangles::default(); 5]; // per material
+        for _ in 0..300 {
+            let c = [r() * 1.6 - 0.8, 0.1 + r() * 1.2, r() * 1.6 - 0.8];
+            let mut jitter =
+                || [c[0] + (r() - 0.5) * scale, c[1] + (r() - 0.5) * scale, c[2] + (r() - 0.5) * scale];
+            let t = [jitter(), jitter(), jitter()];
+            let d = jitter();
+            for tri in [Some(t), (r() < 0.3).then_some([t[1], t[0], d])].into_iter().flatten() {
+                let material = [0, 1, 1, 1, 2, 2, 3, 4][(r() * 8.0) as usize];
+                let uv0 = [r() * 3.0 - 1.0, r() * 3.0 - 1.0];
+                let extent = if r() < 0.1 { 0.8 } else { 0.06 * r() };
+                let part = &mut parts[material];
+                part.positions.extend(tri);
+                part.uvs.extend([uv0, [uv0[0] + extent * r(), uv0[1]], [uv0[0], uv0[1] + extent * r()]]);
+            }
+        }
+        let mut g = GltfBuilder::default();
+        let materials = alpha_materials(&mut g);
+        let primitives = parts
+            .iter()
+            .zip(materials)
+            .filter(|(part, _)| !part.positions.is_empty())
+            .map(|(part, material)| {
+                let attributes =
+                    [("POSITION", g.positions(&part.positions)), ("TEXCOORD_0", g.texcoords(&part.uvs))];
+                primitive(&attributes, None, TRIANGLES, Some(material))
+            })
+            .collect();
+        let mesh = g.mesh(primitives);
+        let node = g.node(json!({"mesh": mesh}));
+        let scene = g.scene(&[node]);
+        g.set_default_scene(scene);
+        let name = format!("alpha_soup{k}");
+        let model = g.write(&dir.path, &name);
+        scenes.push(scene_file(dir, &name, &model, [0.3, 0.8, 1.2, 0.5][k]));
+    }
+    scenes
 }

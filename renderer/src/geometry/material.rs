@@ -13,9 +13,11 @@ pub enum Wrap {
 }
 
 impl Wrap {
-    /// The texel index for an integer index `i` of a `size`-texel axis.
+    /// The texel index for an integer index `i` of a `size`-texel axis. Public so that
+    /// classifications of what a lookup can read (silhouette's alpha classes) wrap exactly
+    /// as [`Texture::sample`] does.
     #[inline]
-    fn index(self, i: i64, size: u32) -> usize {
+    pub fn index(self, i: i64, size: u32) -> usize {
         let n = size as i64;
         let j = match self {
             Wrap::Repeat => i.rem_euclid(n),

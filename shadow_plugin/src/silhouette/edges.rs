@@ -9,16 +9,19 @@
 //! shadow ray ever crosses the edge as a silhouette and it is dropped (coplanar neighbours
 //! always are). Boundary and non-manifold edges are always kept.
 //!
+//! Alpha-tested triangles are classified first (`alpha.rs`): ones the test never cuts are
+//! counted as opaque, ones it always cuts are dropped (no ray ever stops on them).
+//!
 //! Triangles the counting cannot answer for are flagged and left out of it (the edges they
-//! share become boundary edges of the rest): alpha-tested ones (holes under a texture), ones
-//! near or across the light's plane (shadow rays stop short of the light by a fraction of
-//! their length, so whether they count depends on the point), and zero-area ones (their
-//! weight is 0, but an f32 ray test may still graze them). A sample whose ray may meet one
-//! is traced.
+//! share become boundary edges of the rest): alpha-tested ones the test may or may not cut
+//! (holes under a texture), ones near or across the light's plane (shadow rays stop short of
+//! the light by a fraction of their length, so whether they count depends on the point),
+//! and zero-area ones (their weight is 0, but an f32 ray test may still graze them). A
+//! sample whose ray may meet one is traced.
 
+use super::alpha::{self, AlphaClass};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
-use renderer::geometry::material::AlphaMode;
 use renderer::{RectLight, Scene};
 
 /// Triangle flags: what a point whose shaft meets the triangle must do.
@@ -64,7 +67,12 @@ pub struct EdgeStats {
     pub potential: u64,
     pub boundary: u64,
     pub non_manifold: u64,
+    /// Alpha-tested triangles the test may or may not cut: flagged [`ALPHA`].
     pub alpha_triangles: u64,
+    /// Alpha-tested triangles the test never cuts: counted as opaque.
+    pub alpha_opaque_triangles: u64,
+    /// Alpha-tested triangles the test always cuts: dropped.
+    pub alpha_clear_triangles: u64,
     pub near_light_triangles: u64,
     pub zero_area_triangles: u64,
 }
@@ -87,11 +95,18 @@ impl EdgeSet {
         let mut set = EdgeSet { flags: vec![0; n], ..EdgeSet::default() };
         set.weld(scene);
         let near = near_light_band(scene, light);
+        let classes = alpha::classify(scene);
         for (slot, tri) in scene.triangles.iter().enumerate() {
             let v = [Vec3::from(tri.v0), Vec3::from(tri.v1), Vec3::from(tri.v2)];
-            let material = &scene.materials[scene.shading[slot].material as usize];
-            if !matches!(material.alpha, AlphaMode::Opaque) {
-                set.flags[slot] |= ALPHA;
+            match classes[slot] {
+                AlphaClass::NoTest => {}
+                AlphaClass::Opaque => set.stats.alpha_opaque_triangles += 1,
+                // Never met by any ray: neither flagged nor counted, whatever its position.
+                AlphaClass::Clear => {
+                    set.stats.alpha_clear_triangles += 1;
+                    continue;
+                }
+                AlphaClass::Mixed => set.flags[slot] |= ALPHA,
             }
             if v.iter().any(|x| (light.normal.as_dvec3()).dot(x.as_dvec3() - light.center.as_dvec3()) < near)
             {
@@ -106,7 +121,7 @@ impl EdgeSet {
         set.stats.alpha_triangles = set.flags.iter().filter(|&&f| f & ALPHA != 0).count() as u64;
         set.stats.near_light_triangles = set.flags.iter().filter(|&&f| f & NEAR_LIGHT != 0).count() as u64;
         set.stats.zero_area_triangles = set.flags.iter().filter(|&&f| f & ZERO_AREA != 0).count() as u64;
-        set.link_edges(light);
+        set.link_edges(light, &classes);
         set
     }
 
@@ -142,14 +157,14 @@ impl EdgeSet {
         self.corners = corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     }
 
-    /// Every edge of the opaque, non-degenerate triangles with its incident triangles; keeps
-    /// the potential silhouette edges.
-    fn link_edges(&mut self, light: &RectLight) {
+    /// Every edge of the opaque (unflagged, not clear), non-degenerate triangles with its
+    /// incident triangles; keeps the potential silhouette edges.
+    fn link_edges(&mut self, light: &RectLight, classes: &[AlphaClass]) {
         // (a, b, third, whether the triangle's winding runs a -> b) for every triangle side,
         // sorted by edge: packed in one u128 (one integer comparison) for the sort.
         let mut packed: Vec<u128> = Vec::with_capacity(3 * self.corners.len());
         for (slot, c) in self.corners.iter().enumerate() {
-            if self.flags[slot] != 0 {
+            if self.flags[slot] != 0 || classes[slot] == AlphaClass::Clear {
                 continue;
             }
             for k in 0..3 {

@@ -21,6 +21,7 @@
 //! Scene file: `method = "silhouette"`; `[shadows.silhouette]` takes no keys (the sample
 //! count is `[shadows].samples`, as for `traced`).
 
+mod alpha;
 mod cells;
 mod counting;
 mod edge_tree;
@@ -231,6 +232,8 @@ impl LightShadowing for Silhouette {
             ("edges_boundary", s.boundary),
             ("edges_non_manifold", s.non_manifold),
             ("triangles_alpha", s.alpha_triangles),
+            ("triangles_alpha_opaque", s.alpha_opaque_triangles),
+            ("triangles_alpha_clear", s.alpha_clear_triangles),
             ("triangles_near_light", s.near_light_triangles),
             ("triangles_zero_area", s.zero_area_triangles),
         ];
