@@ -284,6 +284,8 @@ fn side_edges(plugin: &Silhouette, scene: &Scene, side: &Side, s: &mut Scratch) 
     let c = &plugin.counters;
     c.edges_tested.fetch_add(s.candidates.len() as u64, Ordering::Relaxed);
     c.edges_active.fetch_add(s.active.len() as u64, Ordering::Relaxed);
+    // The profile's per-pixel unit of this method's own work: its active edges.
+    renderer::util::profile::count_lookups(s.active.len() as u64);
     Ok(())
 }
 
