@@ -12,11 +12,19 @@
 //! point's silhouette edges times the samples (plain per-sample arithmetic), plus one ray,
 //! whatever N.
 //!
-//! Exact, or traced: a sample within rounding of a projected edge, under the geometric
-//! tangent plane, outside the point's shaft, or whose ray may meet a triangle left out of the
-//! counting (alpha-tested, near the light's plane, zero-area) is traced with `traced`'s own
-//! ray; a point whose edge weights the f64 filter cannot sign is traced whole. The answer equals `traced`'s with the same
-//! samples (tests/silhouette.rs counts disagreements over every settled sample).
+//! Exact, or traced: a sample within rounding of a projected edge, outside the point's
+//! shaft, or whose ray may meet a triangle left out of the counting (alpha-tested with
+//! holes, near the light's plane, zero-area) is traced with `traced`'s own ray; a point with
+//! no reference point clear of every edge's band is traced whole. Samples under the
+//! geometric tangent plane (seen past a smoothed normal) start from the origin below the
+//! surface: they are counted from there, with their own ray. The answer equals `traced`'s
+//! with the same samples (tests/silhouette.rs counts disagreements over every settled
+//! sample).
+//!
+//! Cost: per light, the potential silhouette edges in a BVH with normal cones
+//! (`edge_tree.rs`); per point, one shaft query, exact weights for the edges over the light,
+//! whole strata cells counted at once where an edge's tests are certain over the cell
+//! (`cells.rs`), and one ray per side.
 //!
 //! Scene file: `method = "silhouette"`; `[shadows.silhouette]` takes no keys (the sample
 //! count is `[shadows].samples`, as for `traced`).
