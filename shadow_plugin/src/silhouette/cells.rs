@@ -131,13 +131,8 @@ mod tests {
     /// random points, in f32 as the samples are) gets exactly that from `count_edge`.
     #[test]
     fn certain_verdicts_agree_with_every_sample_in_the_cell() {
-        let mut state = 0x1234_5678_9abc_def1u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut uniform = crate::silhouette::uniform(0x1234_5678_9abc_def1);
+        let mut next = || uniform() as f32;
         let grid = (8usize, 8usize);
         let (mut certain, mut exact) = (0u32, 0u32);
         for _ in 0..400 {

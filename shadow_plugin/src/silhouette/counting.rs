@@ -202,13 +202,8 @@ mod tests {
     /// taking its ends (to rounding), on path cones of random edges and references.
     #[test]
     fn a_range_matches_clipping_each_side() {
-        let mut state = 0x5151_7a7a_0303_9d9du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 1.4 - 0.2
-        };
+        let mut uniform = crate::silhouette::uniform(0x5151_7a7a_0303_9d9d);
+        let mut next = || uniform() * 1.4 - 0.2;
         let clipped = |poly: &[DVec2], y0: f64, y1: f64| {
             let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
             for k in 0..poly.len() {

@@ -241,13 +241,8 @@ mod tests {
     /// and it does claim so for origins far along its axis.
     #[test]
     fn a_cone_prunes_only_where_every_plane_agrees() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut uniform = crate::silhouette::uniform(0x2545_f491_4f6c_dd1d);
+        let mut next = || uniform() * 2.0 - 1.0;
         let (mut claimed, mut far_claimed) = (0, 0);
         for _ in 0..300 {
             // Two clusters of planes: normals near one direction, points in a small patch.

@@ -30,6 +30,17 @@
 //! count is `[shadows].samples`, as for `traced`).
 
 mod alpha;
+
+/// A uniform [0, 1) stream (xorshift64, 53 bits) for the folder's randomised unit tests.
+#[cfg(test)]
+fn uniform(mut state: u64) -> impl FnMut() -> f64 {
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
 mod cells;
 mod counting;
 mod edge_tree;

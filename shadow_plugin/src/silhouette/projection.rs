@@ -320,13 +320,7 @@ mod tests {
     /// thin, with margins up to 0.05).
     #[test]
     fn a_region_box_holds_every_point_its_lines_accept() {
-        let mut state = 0x0bad_5eed_dead_beefu64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut next = crate::silhouette::uniform(0x0bad_5eed_dead_beef);
         let mut bounded = 0;
         for _ in 0..2000 {
             let pts = [0, 1, 2].map(|_| DVec2::new(next(), next()));
@@ -358,13 +352,8 @@ mod tests {
     /// where it does not: a point exactly in the plane (0), and one 2^-45 off it.
     #[test]
     fn exact_orientation_decides_what_the_filter_cannot() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64 * 20.0 - 10.0
-        };
+        let mut uniform = crate::silhouette::uniform(0x9e37_79b9_7f4a_7c15);
+        let mut next = || uniform() * 20.0 - 10.0;
         let mut point = || DVec3::new(next(), next(), next());
         for _ in 0..10_000 {
             let (o, e0, e1, c) = (point(), point(), point(), point());
