@@ -306,6 +306,23 @@ impl Scene {
         }
     }
 
+    /// Whether the shadow ray [`Scene::segment_occluded_from`] builds meets triangle `slot`
+    /// (alpha test honoured): the same ray and the same test its traversal applies to that
+    /// triangle, for a method that knows which few triangles can block it.
+    pub fn segment_meets_triangle(
+        &self,
+        origin: Vec3,
+        target: Vec3,
+        target_error: Vec3,
+        target_normal: Vec3,
+        slot: usize,
+    ) -> bool {
+        match shadow_ray_from(origin, target, target_error, target_normal) {
+            Some(ray) => self.hit_distance(&ray, slot) < ray.tmax,
+            None => false,
+        }
+    }
+
     /// A bound on the magnitude of every coordinate in the scene (triangles and lights), for
     /// rounding margins of tests that may meet any triangle ([`crate::Shaft`]).
     pub fn coordinate_bound(&self) -> f32 {

@@ -183,6 +183,19 @@ impl<'a> PointSamples<'a> {
         Some(LightSample { a, b, target, height, proven, stratum: i + nx * j })
     }
 
+    /// Whether `s`'s shadow ray (`traced`'s own) meets triangle `slot`, alone.
+    pub fn meets(&self, scene: &Scene, s: &LightSample, slot: usize) -> bool {
+        let point = &self.q.point;
+        let from = if s.height < 0.0 { offset_origin(point, s.target - point.p) } else { self.origin };
+        scene.segment_meets_triangle(
+            from,
+            s.target,
+            self.light.point_error(s.a, s.b),
+            self.light.normal,
+            slot,
+        )
+    }
+
     /// Whether `s`'s shadow ray is blocked: `traced`'s own ray.
     #[inline(always)]
     pub fn occluded(&self, scene: &Scene, s: &LightSample) -> bool {

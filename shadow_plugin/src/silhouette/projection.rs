@@ -32,6 +32,10 @@ pub(super) struct Region {
     /// were ~45% of the method's time).
     pub(super) lo: DVec2,
     pub(super) hi: DVec2,
+    /// The triangle, and whether alpha (holes) is its only flag: then a sample the opaque
+    /// count leaves lit is tested against it alone, not traced.
+    pub(super) slot: u32,
+    pub(super) alpha_only: bool,
 }
 
 /// A triangle clipped by six planes has at most nine sides.
@@ -95,7 +99,8 @@ impl Region {
         // still holds the samples near it).
         let area: f64 = (0..n).map(|k| pts[k].perp_dot(pts[(k + 1) % n])).sum();
         let (lo, hi) = (DVec2::NEG_INFINITY, DVec2::INFINITY);
-        let mut region = Region { lines: [[0.0; 3]; MAX_POLYGON], count: 0, margin, lo, hi };
+        let mut region =
+            Region { lines: [[0.0; 3]; MAX_POLYGON], count: 0, margin, lo, hi, slot: 0, alpha_only: false };
         for k in 0..n {
             let (a, b) = (pts[k], pts[(k + 1) % n]);
             let d = b - a;
@@ -327,8 +332,8 @@ mod tests {
             let area = (pts[1] - pts[0]).perp_dot(pts[2] - pts[0]);
             let sign = if area >= 0.0 { 1.0 } else { -1.0 };
             let (lo, hi) = (DVec2::NEG_INFINITY, DVec2::INFINITY);
-            let mut region =
-                Region { lines: [[0.0; 3]; MAX_POLYGON], count: 0, margin: 0.05 * next(), lo, hi };
+            let (lines, margin) = ([[0.0; 3]; MAX_POLYGON], 0.05 * next());
+            let mut region = Region { lines, count: 0, margin, lo, hi, slot: 0, alpha_only: false };
             for k in 0..3 {
                 let (a, b) = (pts[k], pts[(k + 1) % 3]);
                 let d = b - a;

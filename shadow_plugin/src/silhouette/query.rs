@@ -3,6 +3,7 @@
 
 use super::cells::{Verdict, edge_verdicts};
 use super::counting::{ActiveEdge, Counts, count_edge, count_edge_on_grid};
+use super::edges::ALPHA;
 use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
 use super::{Fallback, Silhouette};
 use glam::{DVec2, DVec3, Vec3};
@@ -43,6 +44,9 @@ struct Scratch {
     samples: Vec<LightSample>,
     rel: Vec<i32>,
     uncertain: Vec<bool>,
+    /// Per sample: [`MIXED`] where only alpha-tested triangles with holes may block it beyond
+    /// the opaque count, then [`MIXED_LIT`] or [`MIXED_BLOCKED`] once tested against them.
+    mixed: Vec<u8>,
     /// The counted samples of one side binned by cell of the strata grid (row-major): the
     /// cells' starts, each sample's index in `samples`, light coordinates, count and band
     /// mark, in bin order.
@@ -150,13 +154,20 @@ impl Scratch {
         self.regions.clear();
         for &slot in &self.excluded {
             let c = set.corners[slot as usize];
-            if let Some(region) = Region::new(frame, [vertex(c[0]), vertex(c[1]), vertex(c[2])]) {
+            if let Some(mut region) = Region::new(frame, [vertex(c[0]), vertex(c[1]), vertex(c[2])]) {
+                region.slot = slot;
+                region.alpha_only = set.flags[slot as usize] == ALPHA;
                 self.regions.push(region);
             }
         }
         Ok(())
     }
 }
+
+/// [`Scratch::mixed`]'s marks.
+const MIXED: u8 = 1;
+const MIXED_LIT: u8 = 2;
+const MIXED_BLOCKED: u8 = 3;
 
 /// The reference point: the first of [`REFERENCES`] clear of every edge's band.
 fn reference(active: &[ActiveEdge]) -> Result<DVec2, Fallback> {
@@ -247,6 +258,8 @@ fn relative_counts(
     });
     s.rel.clear();
     s.rel.resize(s.samples.len(), 0);
+    s.mixed.clear();
+    s.mixed.resize(s.samples.len(), 0);
     let mut lit = [None; 2];
     for side in Side::both(q, samples.origin) {
         if !s.samples.iter().any(|x| (x.height < 0.0) == side.below) {
@@ -257,7 +270,11 @@ fn relative_counts(
         }
         let edges = if side.below || !above_gathered { side_edges(plugin, scene, &side, s) } else { Ok(()) };
         match edges.and_then(|()| side_counts(plugin, &side, samples, s)) {
-            Ok(()) => lit[side.below as usize] = lit_count(scene, samples, s, side.below, rays)?,
+            Ok(()) => {
+                let l = lit_count(plugin, scene, samples, s, side.below, rays)?;
+                test_mixed(plugin, scene, samples, s, side.below, l);
+                lit[side.below as usize] = l;
+            }
             // The side below has no shaft (its origin too near the light's plane, or behind
             // it): its samples are traced.
             Err(Fallback::NoShaft) if side.below => {
@@ -312,7 +329,10 @@ fn side_counts(
             }
             let p = DVec2::new(x.a as f64, x.b as f64);
             s.uncertain[k] |= !cover.covers(sign * x.height, x.target - side.point.p)
-                || s.regions.iter().any(|r| r.holds(p));
+                || s.regions.iter().any(|r| !r.alpha_only && r.holds(p));
+            if !s.uncertain[k] && s.regions.iter().any(|r| r.alpha_only && r.holds(p)) {
+                s.mixed[k] = MIXED;
+            }
         }
     }
     if s.active.is_empty() {
@@ -337,16 +357,26 @@ fn side_counts(
 /// iff its ray is unblocked (none is traced where a shaft proved a sample lit). Also `None`
 /// when every sample of the side is traced.
 fn lit_count(
+    plugin: &Silhouette,
     scene: &Scene,
     samples: &PointSamples,
-    s: &Scratch,
+    s: &mut Scratch,
     below: bool,
     rays: &mut u64,
 ) -> Result<Option<i32>, Fallback> {
-    // One pass: the first sample with the lowest count, and the first proven one.
-    let (mut m, mut proven) = (None::<usize>, None::<usize>);
+    let counters = &plugin.counters;
+    // One pass: the first sample with the lowest count, and the first proven one. The ray
+    // that settles the constant must meet opaque triangles only: a sample that may meet an
+    // alpha-tested one is not aimed at; if one of them has a count below every other's, they
+    // are all traced instead.
+    let on_side = |k: usize| !s.uncertain[k] && (s.samples[k].height < 0.0) == below;
+    let (mut m, mut proven, mut mixed_min) = (None::<usize>, None::<usize>, i32::MAX);
     for (k, x) in s.samples.iter().enumerate() {
-        if s.uncertain[k] || (x.height < 0.0) != below {
+        if !on_side(k) {
+            continue;
+        }
+        if s.mixed[k] != 0 {
+            mixed_min = mixed_min.min(s.rel[k]);
             continue;
         }
         if m.is_none_or(|m| s.rel[k] < s.rel[m]) {
@@ -355,6 +385,16 @@ fn lit_count(
         if x.proven && proven.is_none() {
             proven = Some(k);
         }
+    }
+    if m.is_none_or(|m| mixed_min < s.rel[m]) && mixed_min != i32::MAX {
+        // The lowest count is a sample's that may meet an alpha-tested triangle: the side's
+        // such samples are traced one by one (the rest keep their counts and `m`).
+        for k in 0..s.samples.len() {
+            if s.mixed[k] != 0 && !s.uncertain[k] && (s.samples[k].height < 0.0) == below {
+                (s.mixed[k], s.uncertain[k]) = (0, true);
+            }
+        }
+        counters.fallback_mixed.fetch_add(1, Ordering::Relaxed);
     }
     let Some(m) = m else { return Ok(None) };
     match proven {
@@ -367,6 +407,34 @@ fn lit_count(
             Ok((!samples.occluded(scene, &s.samples[m])).then_some(s.rel[m]))
         }
     }
+}
+
+/// Settles one side's [`MIXED`] samples: blocked where the opaque count says so, else
+/// tested against the alpha-tested triangles whose regions hold them, alone (their alpha
+/// lookup, `traced`'s ray), instead of tracing them through the scene.
+fn test_mixed(
+    plugin: &Silhouette,
+    scene: &Scene,
+    samples: &PointSamples,
+    s: &mut Scratch,
+    below: bool,
+    lit: Option<i32>,
+) {
+    let mut tests = 0u64;
+    for k in 0..s.samples.len() {
+        let x = &s.samples[k];
+        if s.mixed[k] != MIXED || s.uncertain[k] || (x.height < 0.0) != below {
+            continue;
+        }
+        let p = DVec2::new(x.a as f64, x.b as f64);
+        let open = Some(s.rel[k]) == lit
+            && !s.regions.iter().filter(|r| r.alpha_only && r.holds(p)).any(|r| {
+                tests += 1;
+                samples.meets(scene, x, r.slot as usize)
+            });
+        s.mixed[k] = if open { MIXED_LIT } else { MIXED_BLOCKED };
+    }
+    plugin.counters.alpha_tests.fetch_add(tests, Ordering::Relaxed);
 }
 
 /// [`count`] cell by cell ([`super::cells`]), for a point [`wholly_above`] with no flagged
@@ -478,6 +546,8 @@ pub(super) fn count(
                 uncertain += 1;
                 rays += 1;
                 visible += !samples.occluded(scene, x) as u32;
+            } else if s.mixed[k] != 0 {
+                visible += (s.mixed[k] == MIXED_LIT) as u32;
             } else {
                 visible += (Some(s.rel[k]) == lit[(x.height < 0.0) as usize]) as u32;
             }
@@ -506,7 +576,11 @@ pub(super) fn verdicts(
         Ok((0..s.samples.len())
             .map(|k| {
                 let x = s.samples[k];
-                (x, (!s.uncertain[k]).then(|| Some(s.rel[k]) == lit[(x.height < 0.0) as usize]))
+                let settled = match s.mixed[k] {
+                    0 => Some(s.rel[k]) == lit[(x.height < 0.0) as usize],
+                    mark => mark == MIXED_LIT,
+                };
+                (x, (!s.uncertain[k]).then_some(settled))
             })
             .collect())
     })
