@@ -17,36 +17,9 @@ fn bench(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_penumbra")).arg("bench").args(args).output().unwrap()
 }
 
-/// A tiny scene of its own: a floor, a floating card and a box under a square light.
-const TINY_SCENE: &str = r#"
-[camera]
-position = [0.0, 2.5, 2.5]
-look_at = [0.0, 0.0, 0.0]
-yfov_deg = 45.0
-[image]
-width = 64
-height = 48
-[[light]]
-center = [0.6, 2.0, 0.4]
-u = [0.5, 0.0, 0.0]
-v = [0.0, 0.0, 0.5]
-radiance = [8.0, 8.0, 8.0]
-[[quad]]
-center = [0.0, 0.0, 0.0]
-u = [4.0, 0.0, 0.0]
-v = [0.0, 0.0, -4.0]
-color = [0.7, 0.7, 0.7]
-[[quad]]
-center = [-0.3, 0.6, 0.0]
-u = [0.5, 0.0, 0.0]
-v = [0.0, 0.0, -0.5]
-color = [0.5, 0.5, 0.8]
-[[quad]]
-center = [0.5, 0.3, -0.4]
-u = [0.3, 0.0, 0.0]
-v = [0.0, 0.0, -0.3]
-color = [0.8, 0.4, 0.3]
-"#;
+#[path = "common/tiny_scene.rs"]
+mod tiny_scene;
+use tiny_scene::TINY_SCENE;
 
 fn read(p: &Path) -> String {
     std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))

@@ -17,6 +17,10 @@ use renderer::{
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+#[path = "common/tiny_scene.rs"]
+mod tiny_scene;
+use tiny_scene::TINY_SCENE;
+
 /// `[shadows.toy]`: every point sees `level` of the light.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -235,29 +239,3 @@ fn a_bench_of_the_toy_reports_it() {
     assert!(svg.contains(&format!("#{r:02X}{g:02X}{b:02X}")), "the toy's colour in the plot");
     let _ = std::fs::remove_dir_all(&dir);
 }
-
-/// A floor, a floating card and a box under a square light.
-const TINY_SCENE: &str = r#"
-[camera]
-position = [0.0, 2.5, 2.5]
-look_at = [0.0, 0.0, 0.0]
-yfov_deg = 45.0
-[image]
-width = 64
-height = 48
-[[light]]
-center = [0.6, 2.0, 0.4]
-u = [0.5, 0.0, 0.0]
-v = [0.0, 0.0, 0.5]
-radiance = [8.0, 8.0, 8.0]
-[[quad]]
-center = [0.0, 0.0, 0.0]
-u = [4.0, 0.0, 0.0]
-v = [0.0, 0.0, -4.0]
-color = [0.7, 0.7, 0.7]
-[[quad]]
-center = [-0.3, 0.6, 0.0]
-u = [0.5, 0.0, 0.0]
-v = [0.0, 0.0, -0.5]
-color = [0.5, 0.5, 0.8]
-"#;

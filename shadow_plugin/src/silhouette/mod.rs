@@ -114,7 +114,8 @@ const CULLING: Culling = Culling::WholeLight;
 /// Why a whole point was traced.
 #[derive(Debug, Clone, Copy)]
 enum Fallback {
-    Unsigned,
+    /// No reference point clear of every active edge's band.
+    NoReference,
     NoShaft,
     Inconsistent,
 }
@@ -137,7 +138,7 @@ struct Counters {
     edges_active: AtomicU64,
     points_umbra: AtomicU64,
     points_below: AtomicU64,
-    fallback_unsigned: AtomicU64,
+    fallback_no_reference: AtomicU64,
     fallback_no_shaft: AtomicU64,
     fallback_inconsistent: AtomicU64,
     /// Sides whose lowest count was a sample that may meet an alpha-tested triangle (the
@@ -164,7 +165,7 @@ impl Silhouette {
     fn trace_all(&self, scene: &Scene, samples: &PointSamples, why: Fallback) -> f32 {
         let c = &self.counters;
         match why {
-            Fallback::Unsigned => &c.fallback_unsigned,
+            Fallback::NoReference => &c.fallback_no_reference,
             Fallback::NoShaft => &c.fallback_no_shaft,
             Fallback::Inconsistent => &c.fallback_inconsistent,
         }
@@ -247,7 +248,7 @@ impl LightShadowing for Silhouette {
             ("edges_active", load(&c.edges_active)),
             ("points_umbra", load(&c.points_umbra)),
             ("points_counted_below", load(&c.points_below)),
-            ("points_fallback_unsigned", load(&c.fallback_unsigned)),
+            ("points_fallback_no_reference", load(&c.fallback_no_reference)),
             ("points_fallback_no_shaft", load(&c.fallback_no_shaft)),
             ("points_fallback_inconsistent", load(&c.fallback_inconsistent)),
             ("sides_alpha_lowest", load(&c.fallback_mixed)),

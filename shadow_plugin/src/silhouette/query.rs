@@ -175,7 +175,7 @@ fn reference(active: &[ActiveEdge]) -> Result<DVec2, Fallback> {
         .iter()
         .map(|&[a, b]| DVec2::new(a, b))
         .find(|r| active.iter().all(|e| e.side_at(r.x as f32, r.y as f32).abs() > 4.0 * e.band))
-        .ok_or(Fallback::Unsigned)
+        .ok_or(Fallback::NoReference)
 }
 
 /// The two origins a point's rays start from: above its geometric tangent plane (every
