@@ -165,8 +165,8 @@ fn tiny_and_huge_triangles_are_kept() {
 
 /// Rendering them: the visibility at 1e-20 and 1e20 equals the unit scene's (same bits up to
 /// f32 rounding: the tolerance is 1/64, one of 64 light samples flipping at an edge, on at
-/// most 1% of the pixels). At these scales the Möller-Trumbore determinant and a shadow ray's
-/// squared length leave f32's range: both take an f64 or rescaled rare path.
+/// most 1% of the pixels). At these scales the ray-triangle test's edge functions and a shadow
+/// ray's squared length leave f32's range: the first are always f64, the second rescaled.
 #[test]
 fn tiny_and_huge_scenes_render_as_the_unit_scene() {
     let vis = |s: f64| visibility(&load_text(&scaled_scene(s)).unwrap());

@@ -13,3 +13,4 @@ mod precision_tests;
 pub mod ray_origin;
 pub mod scene;
 pub mod shaft;
+pub mod watertight;

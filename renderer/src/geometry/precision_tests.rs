@@ -279,8 +279,8 @@ fn raw_scene(tris: &[[Vec3; 3]], light: RectLight) -> Scene {
     }
 }
 
-/// Triangles 1e-20 and 1e20 across (f32's Möller-Trumbore determinant underflows /
-/// overflows) are hit by a ray through them and shadow a receiver in their umbra
+/// Triangles 1e-20 and 1e20 across (f32 products of their coordinates underflow / overflow;
+/// the test's edge functions are f64) are hit by a ray through them and shadow a receiver in their umbra
 /// completely (V = 0, 256 samples, plain and culled).
 #[test]
 fn tiny_and_huge_triangles_are_hit_and_occlude() {

@@ -25,7 +25,7 @@ pub const fn gamma(n: u32) -> f32 {
 }
 
 /// Fraction of a shadow ray's length it stops short of its (already offset) end: the
-/// relative rounding of Möller-Trumbore's `t` for geometry lying in the light's plane (an
+/// relative rounding of the ray-triangle test's `t` for geometry lying in the light's plane (an
 /// emitter's own triangles, a ceiling flush with the light). pbrt-v4's `ShadowEpsilon`.
 pub const SHADOW_EPSILON: f32 = 1e-4;
 

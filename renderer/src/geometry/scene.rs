@@ -7,6 +7,7 @@ use crate::geometry::light::RectLight;
 use crate::geometry::material::{Material, Texture};
 use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::{interpolation_error, shadow_ray, shadow_ray_from};
+use crate::geometry::watertight::ShearedRay;
 use glam::{DVec3, Vec2, Vec3};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::Ray, triangle::Triangle};
 use std::time::Duration;
@@ -115,69 +116,6 @@ pub fn bvh_params() -> BvhBuildParams {
 }
 
 impl Scene {
-    /// Möller-Trumbore with barycentrics (obvhs's `compute_barycentric` is mis-scaled, see
-    /// deps.md): returns (t, b1, b2) for a hit with `tmin < t <= tmax` (strict at `tmin`: a
-    /// ray leaving a plane exactly, where the offset is zero, computes t = 0 on it).
-    ///
-    /// In f32; where the determinant is zero, subnormal or not finite (a triangle ~1e-20 or
-    /// ~1e20 across) or `t` overflows, the whole test is redone in f64 ([`Self::intersect_f64`]),
-    /// so tiny and huge triangles are hit like any other. The common path costs one more
-    /// comparison than before.
-    #[inline(always)]
-    fn intersect_triangle(tri: &Triangle, ray: &Ray) -> Option<(f32, f32, f32)> {
-        let e1 = tri.v1 - tri.v0;
-        let e2 = tri.v2 - tri.v0;
-        let pvec = ray.direction.cross(e2);
-        let det = e1.dot(pvec);
-        if !(f32::MIN_POSITIVE..=f32::MAX).contains(&det.abs()) {
-            return Self::intersect_f64(tri, ray);
-        }
-        let inv = 1.0 / det;
-        let tvec = ray.origin - tri.v0;
-        let b1 = tvec.dot(pvec) * inv;
-        if !(0.0..=1.0).contains(&b1) {
-            return None;
-        }
-        let qvec = tvec.cross(e1);
-        let b2 = ray.direction.dot(qvec) * inv;
-        if b2 < 0.0 || b1 + b2 > 1.0 {
-            return None;
-        }
-        let t = e2.dot(qvec) * inv;
-        if !t.is_finite() {
-            return Self::intersect_f64(tri, ray);
-        }
-        (t > ray.tmin && t <= ray.tmax).then_some((t, b1, b2))
-    }
-
-    /// The rare path of [`Self::intersect_triangle`]: the same test on the same f32 inputs in
-    /// f64 (products of f32 values neither overflow nor underflow there).
-    #[cold]
-    #[inline(never)]
-    fn intersect_f64(tri: &Triangle, ray: &Ray) -> Option<(f32, f32, f32)> {
-        let v0 = Vec3::from(tri.v0).as_dvec3();
-        let e1 = Vec3::from(tri.v1).as_dvec3() - v0;
-        let e2 = Vec3::from(tri.v2).as_dvec3() - v0;
-        let d = Vec3::from(ray.direction).as_dvec3();
-        let pvec = d.cross(e2);
-        let det = e1.dot(pvec);
-        if det == 0.0 || !det.is_finite() {
-            return None;
-        }
-        let tvec = Vec3::from(ray.origin).as_dvec3() - v0;
-        let b1 = tvec.dot(pvec) / det;
-        if !(0.0..=1.0).contains(&b1) {
-            return None;
-        }
-        let qvec = tvec.cross(e1);
-        let b2 = d.dot(qvec) / det;
-        if b2 < 0.0 || b1 + b2 > 1.0 {
-            return None;
-        }
-        let t = e2.dot(qvec) / det;
-        (t > ray.tmin as f64 && t <= ray.tmax as f64).then_some((t as f32, b1 as f32, b2 as f32))
-    }
-
     /// The unit geometric normal of a triangle (its winding's side): from the f32 cross
     /// product, or in f64 where that underflows or overflows (tiny and huge triangles).
     #[inline]
@@ -206,8 +144,8 @@ impl Scene {
     /// Always inlined: it runs once per triangle a ray meets, inside the BVH traversal (as a
     /// call it cost ~20% of `traced` on monobloc-chair, measured).
     #[inline(always)]
-    fn hit_distance(&self, ray: &Ray, slot: usize) -> f32 {
-        match Self::intersect_triangle(&self.triangles[slot], ray) {
+    fn hit_distance(&self, ray: &ShearedRay, tmax: f32, slot: usize) -> f32 {
+        match ray.intersect(&self.triangles[slot], tmax) {
             None => f32::INFINITY,
             Some((t, b1, b2)) => {
                 if self.any_alpha_test {
@@ -225,13 +163,13 @@ impl Scene {
     pub fn intersect(&self, ray: Ray) -> Option<SurfaceHit> {
         let bvh = self.bvh.as_ref()?;
         let mut hit = obvhs::ray::RayHit::none();
-        if !bvh.ray_traverse(ray, &mut hit, |r, slot| self.hit_distance(r, slot)) {
+        let sheared = ShearedRay::new(&ray);
+        if !bvh.ray_traverse(ray, &mut hit, |r, slot| self.hit_distance(&sheared, r.tmax, slot)) {
             return None;
         }
         let slot = hit.primitive_id as usize;
         let tri = &self.triangles[slot];
-        let (_, b1, b2) =
-            Self::intersect_triangle(tri, &Ray { tmin: f32::NEG_INFINITY, tmax: f32::INFINITY, ..ray })?;
+        let (_, b1, b2) = sheared.with_tmin(f32::NEG_INFINITY).intersect(tri, f32::INFINITY)?;
         // The hit point from the vertices, not from o + t d: its error is then bounded by
         // the vertices' magnitudes alone, whatever the ray's length.
         let v = [Vec3::from(tri.v0), Vec3::from(tri.v1), Vec3::from(tri.v2)];
@@ -269,7 +207,10 @@ impl Scene {
         crate::util::profile::count_ray();
         match &self.bvh {
             None => false,
-            Some(bvh) => !bvh.ray_traverse_miss(ray, |r, slot| self.hit_distance(r, slot)),
+            Some(bvh) => {
+                let sheared = ShearedRay::new(&ray);
+                !bvh.ray_traverse_miss(ray, |r, slot| self.hit_distance(&sheared, r.tmax, slot))
+            }
         }
     }
 
@@ -318,7 +259,7 @@ impl Scene {
         slot: usize,
     ) -> bool {
         match shadow_ray_from(origin, target, target_error, target_normal) {
-            Some(ray) => self.hit_distance(&ray, slot) < ray.tmax,
+            Some(ray) => self.hit_distance(&ShearedRay::new(&ray), ray.tmax, slot) < ray.tmax,
             None => false,
         }
     }

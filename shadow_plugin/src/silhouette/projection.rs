@@ -15,8 +15,9 @@ pub(super) const MARGIN: f64 = 0.02;
 
 /// The band, in ulps of the largest coordinate involved, within which a sample's shadow ray
 /// may pass an edge and `traced`'s f32 ray-triangle test may go either way: such samples are
-/// traced. Möller-Trumbore's rounding near an edge is a few ulps of the coordinates; 64 is
-/// ample (every sample the differential test settles agrees).
+/// traced. The watertight test's rounding near an edge (moving the vertices into the ray's
+/// frame, the ray's direction) is a few ulps of the coordinates; 64 is ample (every sample
+/// the differential test settles agrees).
 pub(super) const BAND_ULPS: f64 = 64.0;
 
 /// A flagged triangle's projection over the light: a convex polygon in light coordinates
