@@ -61,6 +61,9 @@ impl ShadowsConfig {
                     return Err(SceneError::new(file, key_path, "must be a table"));
                 }
                 (name, _) if !names.contains(&name) => {
+                    if let Some(e) = methods::retired_error(name, file, &key_path) {
+                        return Err(e);
+                    }
                     let known = format!(
                         "\"method\", \"samples\" or a method's table ({})",
                         methods::names_of(names.iter().copied())
@@ -130,9 +133,13 @@ impl ShadowsConfig {
     }
 }
 
-/// The index of `name` in `names`, or an error naming `key`.
+/// The index of `name` in `names`, or an error naming `key` (saying what to use instead of a
+/// retired method).
 fn index(names: &[&'static str], name: &str, file: &Path, key: &str) -> Result<usize, SceneError> {
     names.iter().position(|&m| m == name).ok_or_else(|| {
+        if let Some(e) = methods::retired_error(name, file, key) {
+            return e;
+        }
         let expected = methods::names_of(names.iter().copied());
         SceneError::new(file, key, format!("unknown method \"{name}\"; expected one of {expected}"))
     })

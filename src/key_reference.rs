@@ -5,10 +5,11 @@
 //! (`PENUMBRA_BLESS=1` rewrites it) and when a method's section and its parameters disagree
 //! ([`section_errors`]).
 
-use crate::methods::Registered;
+use crate::methods::{RETIRED, Registered};
 use std::collections::BTreeMap;
 
-/// The page up to the methods' sections; `{methods}` is replaced by the registered names.
+/// The page up to the methods' sections; `{methods}` is replaced by the registered names,
+/// `{retired}` by the retired ones ([`crate::methods::RETIRED`]).
 const HEAD: &str = r#"# Scene file keys: `[shadows]` and each method's table
 
 Every key a scene file's `[shadows]` table and its method tables accept, with its default.
@@ -32,7 +33,7 @@ contract's example (README, "Scene files"), and so is `[integrator]`:
 
 | key | type | default | meaning |
 |---|---|---|---|
-| `method` | string | `"traced"` | the shadow method: {methods}; `--shadows` overrides it |
+| `method` | string | `"traced"` | the shadow method: {methods}; `--shadows` overrides it{retired} |
 | `samples` | int | `256` | light samples per shading point (rays per mask for `edge_table`, PCF taps for `pcss`): 1 to 65536 for `traced`, 1 to 4096 for the depth-map methods; `--samples` overrides it |
 "#;
 
@@ -44,7 +45,13 @@ pub fn page(methods: &[Registered]) -> String {
         Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
         None => String::new(),
     };
-    let mut page = HEAD.replace("{methods}", &listed);
+    let retired: Vec<String> = RETIRED.iter().map(|(name, _)| format!("`\"{name}\"`")).collect();
+    let retired = if retired.is_empty() {
+        String::new()
+    } else {
+        format!("; retired (an error saying what to use instead): {}", retired.join(", "))
+    };
+    let mut page = HEAD.replace("{methods}", &listed).replace("{retired}", &retired);
     for m in methods {
         page.push_str(&format!("\n## `[shadows.{}]`\n\n{}", m.name, m.keys_doc));
     }

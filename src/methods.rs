@@ -3,11 +3,13 @@
 //! parameters, defaults, checks and constructor ([`renderer::MethodParams`]), and its help
 //! line, key reference section, bench sweep and plot colour ([`renderer::MethodEntry`]). The
 //! scene file's `[shadows]`, `--shadows`, the bench and the key reference loop over
-//! [`METHODS`] (or a registry given in its place, in tests).
+//! [`METHODS`] (or a registry given in its place, in tests). A retired method leaves
+//! [`METHODS`] for [`RETIRED`]: its code stays a library, and a scene file that still names
+//! it gets an error saying what to use instead.
 
 use renderer::interface::method::{default_table, parse_boxed};
 use renderer::{MethodEntry, SceneError, ShadowMethod, SweepSetting, TracedParams, Unshadowed};
-use shadow_plugin::{DepthMarchParams, EdgeTableParams, PcssParams, SilhouetteParams};
+use shadow_plugin::{EdgeTableParams, PcssParams, SilhouetteParams};
 use std::path::Path;
 
 /// Parses a method's `[shadows.<name>]` table (`prefix` names it in errors).
@@ -62,10 +64,29 @@ pub const METHODS: &[Registered] = &[
     Registered::of::<TracedParams>(),
     Registered::of::<Unshadowed>(),
     Registered::of::<EdgeTableParams>(),
-    Registered::of::<DepthMarchParams>(),
     Registered::of::<PcssParams>(),
     Registered::of::<SilhouetteParams>(),
 ];
+
+/// Methods no longer registered, each with what to use instead: a scene file that names one
+/// (`method` or its table) gets "`<file>: <key>: "<name>" was retired; <advice>`". Their code
+/// stays in its crate; only the registry forgets them.
+pub const RETIRED: &[(&str, &str)] = &[(
+    "depth_march",
+    "use method = \"edge_table\" (exact by default: lower error for less time on every bench \
+     scene; reading = \"published\" takes depth_march's keys); see \
+     docs/notes/2026-11-26-retired-depth-march.md",
+)];
+
+/// What to use instead of `name`, if it is a retired method.
+pub fn retired(name: &str) -> Option<&'static str> {
+    RETIRED.iter().find(|(n, _)| *n == name).map(|&(_, advice)| advice)
+}
+
+/// The error for a scene file naming the retired method `name` at `key`.
+pub fn retired_error(name: &str, file: &Path, key: &str) -> Option<SceneError> {
+    retired(name).map(|advice| SceneError::new(file, key, format!("\"{name}\" was retired; {advice}")))
+}
 
 /// The method of `methods` called `name`.
 pub fn find_in<'a>(methods: &'a [Registered], name: &str) -> Option<&'a Registered> {

@@ -207,6 +207,32 @@ fn bad_input_gets_one_line_naming_file_and_key_and_exit_2() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A scene file naming the retired `depth_march` (its method or its table) gets one line
+/// naming the file and the key, saying the method was retired and what to use instead; exit
+/// 2, nothing written. So does `--shadows depth_march` (clap's list of methods).
+#[test]
+fn a_retired_method_is_an_error_naming_its_replacement() {
+    let dir = temp_dir("retired");
+    let old = SCENE.replace("method = \"traced\"", "method = \"depth_march\"");
+    assert_ne!(old, SCENE);
+    std::fs::write(dir.join("old.toml"), old).unwrap();
+    let needles =
+        ["old.toml", "shadows.method", "retired", "edge_table", "2026-11-26-retired-depth-march.md"];
+    assert_bad_input(&dir, &["render", "old.toml", "--out", "o.png"], &needles);
+    // A `[shadows.depth_march]` table, whichever method renders.
+    std::fs::write(dir.join("table.toml"), format!("{SCENE}\n[shadows.depth_march]\ndepth_map = 256\n"))
+        .unwrap();
+    let needles = ["table.toml", "shadows.depth_march", "retired", "edge_table"];
+    assert_bad_input(&dir, &["render", "table.toml", "--out", "o.png"], &needles);
+    std::fs::write(dir.join("ok.toml"), SCENE).unwrap();
+    let o = penumbra(&["render", "ok.toml", "--shadows", "depth_march", "--out", "o.png"], &dir);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert!(stderr.contains("depth_march") && stderr.contains("edge_table"), "{stderr}");
+    assert!(!stderr.contains("panicked") && !dir.join("o.png").exists(), "{stderr}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A light low over a floor, the camera looking at floor points far to the side (beyond the
 /// depth map's 76-degree limit) where an occluder's shadow falls: the depth-map methods must
 /// answer those points with traced rays, not call them lit.
@@ -239,7 +265,7 @@ samples = 64
 "#;
     std::fs::write(dir.join("s.toml"), scene).unwrap();
     let mut vis = Vec::new();
-    for method in ["traced", "edge_table", "depth_march"] {
+    for method in ["traced", "edge_table", "pcss"] {
         let out = format!("{method}.png");
         let o = penumbra(&["render", "s.toml", "--shadows", method, "--aov", "--out", &out], &dir);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -247,7 +273,7 @@ samples = 64
         let report: serde_json::Value =
             serde_json::from_slice(&std::fs::read(dir.join(format!("{method}.json"))).unwrap()).unwrap();
         // The exact edge_table reading counts such points as `points_off_map` (every ray
-        // of its own sample set traced); depth_march falls back to traced.
+        // of its own sample set traced); pcss falls back to traced.
         let off_map = if method == "edge_table" { "points_off_map" } else { "fallbacks" };
         if method != "traced" {
             assert!(report["counters"][off_map].as_u64().unwrap() > 0, "{method}: no {off_map}");
@@ -257,7 +283,7 @@ samples = 64
     let shadowed = |v: &[f32]| v.iter().step_by(3).filter(|&&x| (0.0..0.5).contains(&x)).count();
     let truth = shadowed(&vis[0]);
     assert!(truth > 50, "the occluder's shadow is in frame: {truth} pixels");
-    for (k, name) in [(1, "edge_table"), (2, "depth_march")] {
+    for (k, name) in [(1, "edge_table"), (2, "pcss")] {
         // Answered by the same traced rays (per-point seeds), so the shadows agree closely.
         let n = shadowed(&vis[k]);
         assert!(n.abs_diff(truth) <= truth / 20, "{name}: {n} shadowed pixels, traced {truth}");

@@ -8,13 +8,14 @@ use penumbra::bench::plot::{Style, style};
 use penumbra::bench::{BenchArgs, run_bench_in, sweep};
 use penumbra::config::ShadowsConfig;
 use penumbra::key_reference::{page, section_errors, sections};
-use penumbra::methods::{METHODS, Registered, find, names, value_parser_of};
+use penumbra::methods::{METHODS, Registered, find, names, retired, value_parser_of};
 use renderer::interface::entry::top_samples;
 use renderer::{
     KeyError, LightShadowing, MethodEntry, MethodParams, PrepareContext, Scene, SceneError, ShadowError,
     ShadowMethod, ShadowQuery, SweepSetting,
 };
 use serde::{Deserialize, Serialize};
+use shadow_plugin::DepthMarchParams;
 use std::path::{Path, PathBuf};
 
 #[path = "common/tiny_scene.rs"]
@@ -124,13 +125,40 @@ fn the_scene_file_reads_the_toys_table() {
     }
     let e = shadows("method = \"magic\"", &reg).unwrap_err();
     assert_eq!(e.message, format!("unknown method \"magic\"; expected one of {}, \"toy\"", names()));
-    assert!(names().starts_with("\"traced\", \"none\", \"edge_table\", \"depth_march\", \"pcss\""));
+    assert!(names().starts_with("\"traced\", \"none\", \"edge_table\", \"pcss\""));
     let mut c = shadows("", &reg).unwrap();
     c.choose("toy", Path::new("s.toml"), "--shadows").unwrap();
     assert_eq!(c.name(), "toy");
     // Without the registry line, the toy is nothing.
     assert_eq!(shadows("[toy]\nlevel = 0.25", METHODS).unwrap_err().key, "shadows.toy");
     assert!(find("toy").is_none());
+}
+
+/// Retiring a method is the registry's alone: `depth_march` left `METHODS` for `RETIRED`,
+/// its code stayed, and a registry that lists it again reads it as before (the
+/// retired names are consulted only for names no method has), its key section still held
+/// to its parameters.
+#[test]
+fn a_retired_method_is_the_registrys_word_alone() {
+    assert!(find("depth_march").is_none());
+    assert!(retired("depth_march").is_some_and(|a| a.contains("edge_table")));
+    for (text, key) in
+        [("method = \"depth_march\"", "shadows.method"), ("[depth_march]", "shadows.depth_march")]
+    {
+        let e = shadows(text, METHODS).unwrap_err();
+        assert_eq!(e.key, key, "{text}");
+        assert!(e.message.starts_with("\"depth_march\" was retired; use method = \"edge_table\""), "{e}");
+        assert!(e.message.contains("docs/notes/2026-11-26-retired-depth-march.md"), "{e}");
+    }
+    let mut c = shadows("", METHODS).unwrap();
+    let e = c.choose("depth_march", Path::new("s.toml"), "--shadows").unwrap_err();
+    assert_eq!(e.key, "--shadows");
+    assert!(e.message.contains("retired"), "{e}");
+    let again: Vec<Registered> =
+        METHODS.iter().copied().chain([Registered::of::<DepthMarchParams>()]).collect();
+    let c = shadows("method = \"depth_march\"\n[depth_march]\nheightfield = \"shells\"", &again).unwrap();
+    assert_eq!(c.name(), "depth_march");
+    assert_eq!(section_errors(&again[again.len() - 1]), Vec::<String>::new());
 }
 
 #[test]

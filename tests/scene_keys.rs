@@ -124,10 +124,57 @@ fn code_only_switches_are_not_scene_keys() {
         ("edge_table", "closed_volumes"),
         ("edge_table", "hidden_layer"),
         ("edge_table", "fit_shadowed"),
-        ("depth_march", "fit_shadowed"),
     ] {
         assert_eq!(error_key(&format!("[{t}]\n{k} = false")), format!("shadows.{t}.{k}"));
     }
+    // The retired depth_march's own table (a library type now, parsed directly).
+    assert_eq!(retired_key("fit_shadowed = false"), "shadows.depth_march.fit_shadowed");
+}
+
+/// The key `depth_march`'s own parser names for `text`: retired from the registry, its
+/// parameters still check their table.
+fn retired_key(text: &str) -> String {
+    parse_method::<DepthMarchParams>(&table(text), Path::new("s.toml"), "shadows.depth_march")
+        .expect_err(text)
+        .key
+}
+
+#[test]
+fn the_retired_depth_march_is_named_with_what_to_use_instead() {
+    for (text, key) in [
+        ("method = \"depth_march\"", "shadows.method"),
+        ("[depth_march]\nslope_bias = 1.0", "shadows.depth_march"),
+        ("method = \"traced\"\n[depth_march]", "shadows.depth_march"),
+    ] {
+        let e = shadows(text).expect_err(text);
+        assert_eq!(e.key, key, "{text}");
+        assert!(e.message.contains("was retired; use method = \"edge_table\""), "{e}");
+    }
+}
+
+/// The migration the retired depth_march's error names: its table's keys, as they are, under
+/// `[shadows.edge_table]` with `reading = "published"`: the same names, defaults and values.
+#[test]
+fn depth_marchs_keys_carry_over_to_the_published_reading() {
+    let published_keys = published_table();
+    for (k, v) in default_table::<DepthMarchParams>() {
+        assert_eq!(
+            published_keys.get(&k),
+            Some(&v),
+            "{k}: depth_march's default against the published reading's"
+        );
+    }
+    let p = Path::new("s.toml");
+    let old = "depth_map = 512\nheightfield = \"plates\"\nslab_thickness = 3.0\nslope_bias = 2.0\n\
+               normal_offset = 0.25\ngrazing_cos = 0.3";
+    let d = parse_method::<DepthMarchParams>(&table(old), p, "x").unwrap();
+    let e =
+        parse_method::<EdgeTableParams>(&table(&format!("reading = \"published\"\n{old}")), p, "x").unwrap();
+    let (m, r) = (d.depth_map, published(&e));
+    assert_eq!(
+        (e.resolution, r.heightfield, r.slab_thickness, r.slope_bias, r.normal_offset, r.grazing_cos),
+        (m.resolution, d.heightfield, m.slab_thickness, m.slope_bias, m.normal_offset, m.grazing_cos)
+    );
 }
 
 #[test]
@@ -139,7 +186,6 @@ fn bad_values_are_named_even_in_the_shared_depth_map_keys() {
         ("[edge_table]\ngrid = [4, 4, -1]", "shadows.edge_table.grid[2]"),
         ("[edge_table]\nblend = \"cubic\"", "shadows.edge_table.blend"),
         ("[edge_table]\npreset = \"ultra\"", "shadows.edge_table.preset"),
-        ("[depth_march]\nslope_bias = -1.0", "shadows.depth_march.slope_bias"),
         ("[pcss]\nnormal_offset = nan", "shadows.pcss.normal_offset"),
         ("[pcss]\nblocker_samples = 0", "shadows.pcss.blocker_samples"),
         ("[pcss]\nblocker_samples = 4097", "shadows.pcss.blocker_samples"),
@@ -153,17 +199,18 @@ fn bad_values_are_named_even_in_the_shared_depth_map_keys() {
     ] {
         assert_eq!(error_key(text), key, "{text}");
     }
+    assert_eq!(retired_key("slope_bias = -1.0"), "shadows.depth_march.slope_bias");
     assert_eq!(shadows("method = \"traced\"\nsamples = 65536").unwrap().samples, 65536);
 }
 
 #[test]
 fn a_key_that_does_not_apply_to_the_reading_is_an_error() {
     for h in ["shells", "solid"] {
-        for t in ["edge_table", "depth_march"] {
-            let reading = if t == "edge_table" { "reading = \"published\"\n" } else { "" };
-            let text = format!("[{t}]\n{reading}heightfield = \"{h}\"\nslab_thickness = 3.0");
-            assert_eq!(error_key(&text), format!("shadows.{t}.slab_thickness"));
-        }
+        let text =
+            format!("[edge_table]\nreading = \"published\"\nheightfield = \"{h}\"\nslab_thickness = 3.0");
+        assert_eq!(error_key(&text), "shadows.edge_table.slab_thickness");
+        let text = format!("heightfield = \"{h}\"\nslab_thickness = 3.0");
+        assert_eq!(retired_key(&text), "shadows.depth_march.slab_thickness");
     }
     // The exact reading reads none of the published reading's keys.
     for k in &published_only() {

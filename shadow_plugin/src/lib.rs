@@ -1,6 +1,6 @@
 //! Depth-map shadow methods for penumbra: `edge_table` (Egan & Neulander 2004), its per-ray
-//! baseline and oracle `depth_march`, and the real-time baseline `pcss` (Fernando 2005), all
-//! on one light-space depth map.
+//! baseline and oracle `depth_march` (retired from the CLI's registry, kept as a library),
+//! and the real-time baseline `pcss` (Fernando 2005), all on one light-space depth map.
 
 pub mod bits;
 pub mod depth_map;

@@ -5,8 +5,8 @@
 //! (`traced` at `--truth-samples`, cached: [`truth`]), then the sweep ([`sweep()`]): each
 //! registered method's own settings ([`renderer::MethodEntry::sweep`]; today `traced` at
 //! N = 4, 16, 64, 256, 1024 and `traced plain` (no shaft culling) at the top count,
-//! `depth_march`, `edge_table` over depth-map sizes, grids, blend modes and sample counts,
-//! and `pcss`). Every setting runs `--repeats` times; times are
+//! `edge_table` over depth-map sizes, grids, blend modes and sample counts, `pcss`, and
+//! `silhouette` at N = 64 to 4096). Every setting runs `--repeats` times; times are
 //! medians, errors come from the first run (every run gives the same bytes). The shadow
 //! cost of a run is `shadow_prepare + render - render(none)`, medians of each.
 //!

@@ -224,7 +224,6 @@ mod tests {
         let colour = |family: &str| style(methods, family).colour;
         assert_eq!(colour("traced"), [90, 90, 90]);
         assert_eq!(colour("edge_table"), [214, 39, 40]);
-        assert_eq!(colour("depth_march"), [31, 119, 180]);
         assert_eq!(colour("pcss"), [44, 160, 44]);
         assert_eq!(colour("none"), [148, 103, 189]);
         assert_eq!(colour("unregistered"), [148, 103, 189]);
@@ -233,7 +232,7 @@ mod tests {
             assert_eq!(style(methods, m.name).line, m.plot_line, "{}", m.name);
         }
         assert!(style(methods, "traced").line);
-        for family in ["edge_table", "depth_march", "pcss"] {
+        for family in ["edge_table", "pcss"] {
             assert!(!style(methods, family).line, "{family} is points, not a curve");
         }
     }

@@ -1,5 +1,7 @@
-//! `depth_march` in the registry: its help line, its section of the key reference
-//! (`keys.md`), its bench sweep and its plot colour.
+//! `depth_march`'s registry entry: its help line, its section of the key reference
+//! (`keys.md`), its bench sweep and its plot colour. The CLI's registry no longer lists it
+//! (retired, docs/notes/2026-11-26-retired-depth-march.md); a registry that does reads it
+//! as before.
 
 use super::DepthMarchParams;
 use renderer::interface::entry::top_samples;

@@ -3,10 +3,13 @@
 //! that edge tables must beat, and their test oracle: it uses the same depth map, the same
 //! crossing arithmetic and the same bias.
 //!
-//! Scene file: `method = "depth_march"`, with `[shadows.depth_march]` holding the depth-map
-//! keys of `[shadows.edge_table]` and their defaults: `depth_map` (256), `heightfield`
-//! (`plates`), `slope_bias` (1.0), `slab_thickness` (2.0, `plates` only), `normal_offset`
-//! (0.5), `grazing_cos` (0.5).
+//! Retired from the CLI's registry (docs/notes/2026-11-26-retired-depth-march.md: on no bench
+//! scene's cost-error Pareto front): a scene file naming it is an error. The code stays as a
+//! library, the oracle of `shadow_plugin/tests/differential.rs` and the baseline of
+//! `benches/edge_table.rs`. Its table, were a registry to list it again ([`DepthMarchParams`]
+//! still implements `MethodEntry`), holds the depth-map keys of `[shadows.edge_table]` and their
+//! defaults: `depth_map` (256), `heightfield` (`plates`), `slope_bias` (1.0), `slab_thickness`
+//! (2.0, `plates` only), `normal_offset` (0.5), `grazing_cos` (0.5).
 
 mod entry;
 
