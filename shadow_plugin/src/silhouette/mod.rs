@@ -48,6 +48,7 @@ mod edges;
 mod entry;
 mod projection;
 mod query;
+mod scratch;
 
 use edge_tree::EdgeTree;
 use edges::EdgeSet;

@@ -3,16 +3,15 @@
 
 use super::cells::{Verdict, edge_verdicts};
 use super::counting::{ActiveEdge, Counts, count_edge, count_edge_on_grid};
-use super::edges::ALPHA;
-use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
+use super::projection::Frame;
+use super::scratch::{MIXED, MIXED_BLOCKED, MIXED_LIT, SCRATCH, Scratch};
 use super::{Fallback, Silhouette};
-use glam::{DVec2, DVec3, Vec3};
+use glam::{DVec2, Vec3};
 use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;
 use renderer::geometry::shaft::{self, Shaft};
 use renderer::methods::light_samples::{LightSample, PointSamples};
 use renderer::{RectLight, Scene, ShadowQuery};
-use std::cell::RefCell;
 use std::sync::atomic::Ordering;
 
 /// Where the reference point may go, tried in order: one clear of every edge's band. The
@@ -32,142 +31,6 @@ const REFERENCES: [[f64; 2]; 12] = [
     [0.0625, 0.5],
     [0.9375, 0.5],
 ];
-
-#[derive(Default)]
-struct Scratch {
-    candidates: Vec<u32>,
-    /// Flagged triangles in the shaft (left out of the counting).
-    excluded: Vec<u32>,
-    active: Vec<ActiveEdge>,
-    /// The excluded triangles' projections over the light, grown by their bands.
-    regions: Vec<Region>,
-    samples: Vec<LightSample>,
-    rel: Vec<i32>,
-    uncertain: Vec<bool>,
-    /// Per sample: [`MIXED`] where only alpha-tested triangles with holes may block it beyond
-    /// the opaque count, then [`MIXED_LIT`] or [`MIXED_BLOCKED`] once tested against them.
-    mixed: Vec<u8>,
-    /// The counted samples of one side binned by cell of the strata grid (row-major): the
-    /// cells' starts, each sample's index in `samples`, light coordinates, count and band
-    /// mark, in bin order.
-    starts: Vec<u32>,
-    cursor: Vec<u32>,
-    cell_of: Vec<u32>,
-    order: Vec<u32>,
-    a: Vec<f32>,
-    b: Vec<f32>,
-    grid_rel: Vec<i32>,
-    near: Vec<u8>,
-    /// Cell by cell ([`count_cells`]): which cells' samples are drawn.
-    drawn: Vec<bool>,
-}
-
-thread_local! {
-    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
-}
-
-impl Scratch {
-    /// The shaft's candidates: potential silhouette edges, and flagged triangles.
-    fn gather(&mut self, plugin: &Silhouette, shaft: &Shaft, origin: DVec3) -> Result<(), Fallback> {
-        self.candidates.clear();
-        self.excluded.clear();
-        let (set, tree) = (&plugin.edges, &plugin.tree);
-        let complete = tree.gather(set, shaft, origin, &mut self.candidates, &mut self.excluded);
-        // A tree too deep for the traversal's stack: not every edge was seen.
-        if complete { Ok(()) } else { Err(Fallback::NoShaft) }
-    }
-
-    /// Bins this side's counted samples by cell of the strata grid (a counting sort, so that
-    /// a row's cells i0..i1 are one range of `order`): an edge then visits only the rows and
-    /// columns it can reach, also for samples the horizon warp moved off their strata.
-    fn bin(&mut self, (nx, ny): (u32, u32), below: bool) {
-        let (nx, ny) = (nx as usize, ny as usize);
-        let cells = nx * ny;
-        let Scratch { samples, uncertain, starts, cursor, cell_of, order, a, b, grid_rel, near, .. } = self;
-        // Counted samples lie in [0, 1]^2; f32 rounding may put one a cell off its position,
-        // which the counting's margin of a row and a column covers.
-        let cell = |x: &LightSample| {
-            let i = ((x.a * nx as f32) as usize).min(nx - 1);
-            let j = ((x.b * ny as f32) as usize).min(ny - 1);
-            i + nx * j
-        };
-        starts.clear();
-        starts.resize(cells + 1, 0);
-        // Each sample's cell, or `u32::MAX` where it is not counted on this side.
-        cell_of.clear();
-        cell_of.extend(
-            samples
-                .iter()
-                .zip(uncertain.iter())
-                .map(|(x, &u)| if !u && (x.height < 0.0) == below { cell(x) as u32 } else { u32::MAX }),
-        );
-        for &c in cell_of.iter().filter(|&&c| c != u32::MAX) {
-            starts[c as usize + 1] += 1;
-        }
-        for c in 0..cells {
-            starts[c + 1] += starts[c];
-        }
-        let total = starts[cells] as usize;
-        cursor.clear();
-        cursor.extend_from_slice(&starts[..cells]);
-        order.resize(total, 0);
-        a.resize(total, 0.0);
-        b.resize(total, 0.0);
-        grid_rel.clear();
-        grid_rel.resize(total, 0);
-        near.clear();
-        near.resize(total, 0);
-        for (k, &c) in cell_of.iter().enumerate().filter(|&(_, &c)| c != u32::MAX) {
-            let x = &samples[k];
-            let pos = cursor[c as usize] as usize;
-            cursor[c as usize] += 1;
-            (order[pos], a[pos], b[pos]) = (k as u32, x.a, x.b);
-        }
-    }
-
-    /// The candidates active for this point (weight != 0 and over the light), and the bands
-    /// of zero-area triangles' sides.
-    fn activate(&mut self, plugin: &Silhouette, frame: &Frame) -> Result<(), Fallback> {
-        self.active.clear();
-        let set = &plugin.edges;
-        let vertex = |i: u32| set.vertices[i as usize].as_dvec3();
-        for &e in &self.candidates {
-            let edge = set.edges[e as usize];
-            let (e0, e1) = (vertex(edge.a), vertex(edge.b));
-            let (d0, d1) = (e0 - frame.o, e1 - frame.o);
-            let n = d0.cross(d1);
-            let n_abs = DVec3::new(
-                (d0.y * d1.z).abs() + (d0.z * d1.y).abs(),
-                (d0.z * d1.x).abs() + (d0.x * d1.z).abs(),
-                (d0.x * d1.y).abs() + (d0.y * d1.x).abs(),
-            );
-            let mut weight = 0;
-            for &c in &set.thirds[edge.first as usize..(edge.first + edge.count) as usize] {
-                let c = vertex(c);
-                weight += orient_sign(n, n_abs, c, frame.o)
-                    .unwrap_or_else(|| exact_orient_sign(frame.o, e0, e1, c));
-            }
-            if weight != 0 {
-                push(&mut self.active, frame, e0, e1, n, weight);
-            }
-        }
-        self.regions.clear();
-        for &slot in &self.excluded {
-            let c = set.corners[slot as usize];
-            if let Some(mut region) = Region::new(frame, [vertex(c[0]), vertex(c[1]), vertex(c[2])]) {
-                region.slot = slot;
-                region.alpha_only = set.flags[slot as usize] == ALPHA;
-                self.regions.push(region);
-            }
-        }
-        Ok(())
-    }
-}
-
-/// [`Scratch::mixed`]'s marks.
-const MIXED: u8 = 1;
-const MIXED_LIT: u8 = 2;
-const MIXED_BLOCKED: u8 = 3;
 
 /// The reference point: the first of [`REFERENCES`] clear of every edge's band.
 fn reference(active: &[ActiveEdge]) -> Result<DVec2, Fallback> {
@@ -324,15 +187,12 @@ fn side_counts(
     let covered = shaft::covers_light(&side.point, side.origin, light);
     if !(covered && s.regions.is_empty()) {
         for (k, x) in s.samples.iter().enumerate() {
-            if !on_side(x) || x.proven {
-                continue;
+            if on_side(x) && !x.proven {
+                s.uncertain[k] |= !cover.covers(sign * x.height, x.target - side.point.p);
             }
-            let p = DVec2::new(x.a as f64, x.b as f64);
-            s.uncertain[k] |= !cover.covers(sign * x.height, x.target - side.point.p)
-                || s.regions.iter().any(|r| !r.alpha_only && r.holds(p));
-            if !s.uncertain[k] && s.regions.iter().any(|r| r.alpha_only && r.holds(p)) {
-                s.mixed[k] = MIXED;
-            }
+        }
+        if !s.regions.is_empty() {
+            s.test_regions(samples.strata(), side.below);
         }
     }
     if s.active.is_empty() {

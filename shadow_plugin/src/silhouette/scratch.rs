@@ -1,0 +1,217 @@
+//! One point's working memory, per thread (allocated once, reused by every query): the
+//! shaft's candidates, the active edges and flagged triangles' regions, the samples with
+//! their counts and marks, and the strata grid's bins; with the passes that fill them.
+
+use super::counting::ActiveEdge;
+use super::edges::ALPHA;
+use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
+use super::{Fallback, Silhouette};
+use glam::{DVec2, DVec3};
+use renderer::geometry::shaft::Shaft;
+use renderer::methods::light_samples::LightSample;
+use std::cell::RefCell;
+
+#[derive(Default)]
+pub(super) struct Scratch {
+    pub(super) candidates: Vec<u32>,
+    /// Flagged triangles in the shaft (left out of the counting).
+    pub(super) excluded: Vec<u32>,
+    pub(super) active: Vec<ActiveEdge>,
+    /// The excluded triangles' projections over the light, grown by their bands.
+    pub(super) regions: Vec<Region>,
+    pub(super) samples: Vec<LightSample>,
+    pub(super) rel: Vec<i32>,
+    pub(super) uncertain: Vec<bool>,
+    /// Per sample: [`MIXED`] where only alpha-tested triangles with holes may block it beyond
+    /// the opaque count, then [`MIXED_LIT`] or [`MIXED_BLOCKED`] once tested against them.
+    pub(super) mixed: Vec<u8>,
+    /// The counted samples of one side binned by cell of the strata grid (row-major): the
+    /// cells' starts, each sample's index in `samples`, light coordinates, count and band
+    /// mark, in bin order.
+    pub(super) starts: Vec<u32>,
+    pub(super) cursor: Vec<u32>,
+    pub(super) cell_of: Vec<u32>,
+    pub(super) order: Vec<u32>,
+    pub(super) a: Vec<f32>,
+    pub(super) b: Vec<f32>,
+    pub(super) grid_rel: Vec<i32>,
+    pub(super) near: Vec<u8>,
+    /// Cell by cell (`query::count_cells`): which cells' samples are drawn.
+    pub(super) drawn: Vec<bool>,
+    /// Per sample: held by an alpha-only region (1) or another (2) ([`Scratch::test_regions`]).
+    pub(super) region_marks: Vec<u8>,
+}
+
+thread_local! {
+    pub(super) static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
+}
+
+impl Scratch {
+    /// The shaft's candidates: potential silhouette edges, and flagged triangles.
+    pub(super) fn gather(
+        &mut self,
+        plugin: &Silhouette,
+        shaft: &Shaft,
+        origin: DVec3,
+    ) -> Result<(), Fallback> {
+        self.candidates.clear();
+        self.excluded.clear();
+        let (set, tree) = (&plugin.edges, &plugin.tree);
+        let complete = tree.gather(set, shaft, origin, &mut self.candidates, &mut self.excluded);
+        // A tree too deep for the traversal's stack: not every edge was seen.
+        if complete { Ok(()) } else { Err(Fallback::NoShaft) }
+    }
+
+    /// Bins this side's counted samples by cell of the strata grid (a counting sort, so that
+    /// a row's cells i0..i1 are one range of `order`): an edge then visits only the rows and
+    /// columns it can reach, also for samples the horizon warp moved off their strata.
+    pub(super) fn bin(&mut self, (nx, ny): (u32, u32), below: bool) {
+        let (nx, ny) = (nx as usize, ny as usize);
+        let cells = nx * ny;
+        let Scratch { samples, uncertain, starts, cursor, cell_of, order, a, b, grid_rel, near, .. } = self;
+        // Counted samples lie in [0, 1]^2; f32 rounding may put one a cell off its position,
+        // which the counting's margin of a row and a column covers.
+        let cell = |x: &LightSample| {
+            let i = ((x.a * nx as f32) as usize).min(nx - 1);
+            let j = ((x.b * ny as f32) as usize).min(ny - 1);
+            i + nx * j
+        };
+        starts.clear();
+        starts.resize(cells + 1, 0);
+        // Each sample's cell, or `u32::MAX` where it is not counted on this side.
+        cell_of.clear();
+        cell_of.extend(
+            samples
+                .iter()
+                .zip(uncertain.iter())
+                .map(|(x, &u)| if !u && (x.height < 0.0) == below { cell(x) as u32 } else { u32::MAX }),
+        );
+        for &c in cell_of.iter().filter(|&&c| c != u32::MAX) {
+            starts[c as usize + 1] += 1;
+        }
+        for c in 0..cells {
+            starts[c + 1] += starts[c];
+        }
+        let total = starts[cells] as usize;
+        cursor.clear();
+        cursor.extend_from_slice(&starts[..cells]);
+        order.resize(total, 0);
+        a.resize(total, 0.0);
+        b.resize(total, 0.0);
+        grid_rel.clear();
+        grid_rel.resize(total, 0);
+        near.clear();
+        near.resize(total, 0);
+        for (k, &c) in cell_of.iter().enumerate().filter(|&(_, &c)| c != u32::MAX) {
+            let x = &samples[k];
+            let pos = cursor[c as usize] as usize;
+            cursor[c as usize] += 1;
+            (order[pos], a[pos], b[pos]) = (k as u32, x.a, x.b);
+        }
+    }
+
+    /// Marks this side's samples that a flagged triangle's region holds: traced (uncertain),
+    /// or [`MIXED`] where only alpha-tested ones with holes do. The samples are indexed by
+    /// cell of the strata grid first, so that a region visits only the cells its box
+    /// overlaps (glass-vase-flowers: every sample against every region's box was ~30% of the
+    /// method's time).
+    pub(super) fn test_regions(&mut self, (nx, ny): (u32, u32), below: bool) {
+        let (nx, ny) = (nx as usize, ny as usize);
+        let Scratch { samples, uncertain, mixed, regions, starts, cursor, order, region_marks, .. } = self;
+        // f32 rounding or the horizon warp may put a sample a little off its cell: clamped
+        // here, and a region visits a cell of margin around its box.
+        let cell = |x: &LightSample| {
+            let i = ((x.a * nx as f32) as usize).min(nx - 1);
+            let j = ((x.b * ny as f32) as usize).min(ny - 1);
+            i + nx * j
+        };
+        let tested = |k: usize| !uncertain[k] && !samples[k].proven && (samples[k].height < 0.0) == below;
+        starts.clear();
+        starts.resize(nx * ny + 1, 0);
+        for k in (0..samples.len()).filter(|&k| tested(k)) {
+            starts[cell(&samples[k]) + 1] += 1;
+        }
+        for c in 0..nx * ny {
+            starts[c + 1] += starts[c];
+        }
+        cursor.clear();
+        cursor.extend_from_slice(&starts[..nx * ny]);
+        order.resize(starts[nx * ny] as usize, 0);
+        for k in (0..samples.len()).filter(|&k| tested(k)) {
+            let c = cell(&samples[k]);
+            order[cursor[c] as usize] = k as u32;
+            cursor[c] += 1;
+        }
+        // Per sample: 1 held by an alpha-only region, 2 by another.
+        region_marks.clear();
+        region_marks.resize(samples.len(), 0);
+        let span = |lo: f64, hi: f64, n: usize| {
+            let first = if lo.is_finite() { (lo * n as f64).floor() - 1.0 } else { 0.0 };
+            let last = if hi.is_finite() { (hi * n as f64).floor() + 1.0 } else { n as f64 };
+            (first.clamp(0.0, n as f64 - 1.0) as usize, last.clamp(0.0, n as f64 - 1.0) as usize)
+        };
+        for r in regions.iter() {
+            let ((i0, i1), (j0, j1)) = (span(r.lo.x, r.hi.x, nx), span(r.lo.y, r.hi.y, ny));
+            let mark = if r.alpha_only { 1 } else { 2 };
+            for j in j0..=j1 {
+                let cells = starts[i0 + nx * j] as usize..starts[i1 + nx * j + 1] as usize;
+                for &k in &order[cells] {
+                    let x = &samples[k as usize];
+                    if region_marks[k as usize] < mark && r.holds(DVec2::new(x.a as f64, x.b as f64)) {
+                        region_marks[k as usize] = mark;
+                    }
+                }
+            }
+        }
+        for (k, &m) in region_marks.iter().enumerate() {
+            match m {
+                2 => uncertain[k] = true,
+                1 => mixed[k] = MIXED,
+                _ => {}
+            }
+        }
+    }
+
+    /// The candidates active for this point (weight != 0 and over the light), and the bands
+    /// of zero-area triangles' sides.
+    pub(super) fn activate(&mut self, plugin: &Silhouette, frame: &Frame) -> Result<(), Fallback> {
+        self.active.clear();
+        let set = &plugin.edges;
+        let vertex = |i: u32| set.vertices[i as usize].as_dvec3();
+        for &e in &self.candidates {
+            let edge = set.edges[e as usize];
+            let (e0, e1) = (vertex(edge.a), vertex(edge.b));
+            let (d0, d1) = (e0 - frame.o, e1 - frame.o);
+            let n = d0.cross(d1);
+            let n_abs = DVec3::new(
+                (d0.y * d1.z).abs() + (d0.z * d1.y).abs(),
+                (d0.z * d1.x).abs() + (d0.x * d1.z).abs(),
+                (d0.x * d1.y).abs() + (d0.y * d1.x).abs(),
+            );
+            let mut weight = 0;
+            for &c in &set.thirds[edge.first as usize..(edge.first + edge.count) as usize] {
+                let c = vertex(c);
+                weight += orient_sign(n, n_abs, c, frame.o)
+                    .unwrap_or_else(|| exact_orient_sign(frame.o, e0, e1, c));
+            }
+            if weight != 0 {
+                push(&mut self.active, frame, e0, e1, n, weight);
+            }
+        }
+        self.regions.clear();
+        for &slot in &self.excluded {
+            let c = set.corners[slot as usize];
+            if let Some(mut region) = Region::new(frame, [vertex(c[0]), vertex(c[1]), vertex(c[2])]) {
+                region.slot = slot;
+                region.alpha_only = set.flags[slot as usize] == ALPHA;
+                self.regions.push(region);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// [`Scratch::mixed`]'s marks.
+pub(super) const MIXED: u8 = 1;
+pub(super) const MIXED_LIT: u8 = 2;
+pub(super) const MIXED_BLOCKED: u8 = 3;
