@@ -3,25 +3,30 @@
 //! them, whatever the rounding: no shadow leaks through the seams of a closed mesh.
 //!
 //! The vertices are moved into the ray's frame (translated to its origin, permuted so that
-//! the ray runs along +z, sheared onto that axis) by one f32 function of the vertex and the
-//! ray alone, so a shared vertex lands on the same bits in both triangles. Each edge's
-//! function `a.x b.y - a.y b.x` is then evaluated in f64, where the products of f32 values
-//! are exact: its sign is exact, and the two triangles across an edge see it with opposite
-//! signs, never both outside. Möller-Trumbore (the test before this one) rounds each
-//! triangle's barycentrics on its own: a ray through a seam could miss both sides (one
-//! sample in 23 M on glass-vase-flowers, found by `silhouette`'s differential test).
+//! the ray runs along +z, sheared onto that axis) by one f64 function of the vertex and the
+//! ray alone, so a shared vertex lands on the same bits in both triangles; each edge's
+//! function `a.x b.y - a.y b.x` is antisymmetric bit for bit, so the two triangles across an
+//! edge see it with opposite signs, never both outside. A hit whose t lies within its own
+//! rounding of 0 is none (pbrt-v4's bound): a ray leaving a surface does not meet it.
+//!
+//! Why f64: in f32 the frame's rounding made t uncertain by ~1e-7 of the distances, more than
+//! the origin offset of a point on a long wall far from the scene's origin (sauerbraten-zdm2's
+//! walls shadowed themselves), and pbrt's bound then dropped grazing hits, which leaked at
+//! seams. Möller-Trumbore (the test before this one) rounds each triangle's barycentrics on
+//! its own: a ray through a seam could miss both sides (one sample in 23 M on
+//! glass-vase-flowers, found by `silhouette`'s differential test).
 
-use glam::{DVec3, Vec3A};
+use glam::{DVec3, Vec3, Vec3A};
 use obvhs::{ray::Ray, triangle::Triangle};
 
 /// A ray in the test's frame: the axis it runs along (`kz`), the other two, and the shear.
-/// Built once per ray; the test per triangle is then translations, six products, and the
-/// three edge functions.
+/// Built once per ray; the test per triangle is then translations, six products and the
+/// three edge functions, in f64 (scalar f64 costs what scalar f32 does here).
 #[derive(Debug, Clone, Copy)]
 pub struct ShearedRay {
-    origin: Vec3A,
+    origin: DVec3,
     k: [usize; 3],
-    shear: [f32; 3],
+    shear: [f64; 3],
     tmin: f32,
 }
 
@@ -37,9 +42,9 @@ impl ShearedRay {
             2
         };
         let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        let d = ray.direction.to_array();
+        let d = Vec3::from(ray.direction).as_dvec3().to_array();
         let shear = [-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]];
-        ShearedRay { origin: ray.origin, k: [kx, ky, kz], shear, tmin: ray.tmin }
+        ShearedRay { origin: Vec3::from(ray.origin).as_dvec3(), k: [kx, ky, kz], shear, tmin: ray.tmin }
     }
 
     /// The same ray starting its range at `tmin`.
@@ -49,8 +54,8 @@ impl ShearedRay {
 
     /// A vertex in the ray's frame: (x, y) sheared, z along the ray (unscaled).
     #[inline(always)]
-    fn vertex(&self, v: Vec3A) -> [f32; 3] {
-        let p = (v - self.origin).to_array();
+    fn vertex(&self, v: Vec3A) -> [f64; 3] {
+        let p = (Vec3::from(v).as_dvec3() - self.origin).to_array();
         let [kx, ky, kz] = self.k;
         [p[kx] + self.shear[0] * p[kz], p[ky] + self.shear[1] * p[kz], p[kz]]
     }
@@ -71,19 +76,42 @@ impl ShearedRay {
         if det == 0.0 {
             return None;
         }
-        let sz = self.shear[2] as f64;
-        let z = DVec3::new(p0[2] as f64, p1[2] as f64, p2[2] as f64) * sz;
-        let t = ((e0 * z.x + e1 * z.y + e2 * z.z) / det) as f32;
+        let z = DVec3::new(p0[2], p1[2], p2[2]) * self.shear[2];
+        let t = (e0 * z.x + e1 * z.y + e2 * z.z) / det;
+        // A t within its own rounding of 0 is no hit: the ray's origin lies on the triangle's
+        // plane up to that rounding (its own surface, left by the origin offset). pbrt-v4's
+        // conservative bound, from the f32 frame's rounding (the edge functions add none).
+        if t <= t_rounding([p0, p1, p2], z, [e0, e1, e2], det) {
+            return None;
+        }
+        let t = t as f32;
         (t > self.tmin && t <= tmax).then(|| (t, (e1 / det) as f32, (e2 / det) as f32))
     }
 }
 
-/// The edge function of (a, b) seen along the ray: exact in sign (f64 products of f32
-/// values are exact) and antisymmetric bit for bit, so the triangles on either side of a
-/// shared edge agree on it.
+/// A bound on the rounding of a hit's t (pbrt-v4's `deltaT`, Pharr et al. 2023, 6.8.7), in
+/// f64's unit roundoff: from the frame's coordinates' (translation and shear: gamma(5) of x
+/// or y plus z, gamma(3) of the scaled z) through the edge functions and their weighted sum.
 #[inline(always)]
-fn edge(a: [f32; 3], b: [f32; 3]) -> f64 {
-    a[0] as f64 * b[1] as f64 - a[1] as f64 * b[0] as f64
+fn t_rounding(p: [[f64; 3]; 3], z: DVec3, e: [f64; 3], det: f64) -> f64 {
+    let g = |n: u32| {
+        let nu = n as f64 * f64::EPSILON * 0.5;
+        nu / (1.0 - nu)
+    };
+    let max = |k: usize| p.iter().fold(0.0f64, |m, v| m.max(v[k].abs()));
+    let (max_x, max_y, max_z) = (max(0), max(1), z.abs().max_element());
+    let (delta_x, delta_y, delta_z) = (g(5) * (max_x + max_z), g(5) * (max_y + max_z), g(3) * max_z);
+    let delta_e = 2.0 * (g(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+    let max_e = e.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    3.0 * (g(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) / det.abs()
+}
+
+/// The edge function of (a, b) seen along the ray: antisymmetric bit for bit (the products
+/// commute, the difference negates exactly), so the triangles on either side of a shared
+/// edge agree on it.
+#[inline(always)]
+fn edge(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
 }
 
 #[cfg(test)]
@@ -137,6 +165,47 @@ mod tests {
         }
         assert!(met > 50_000, "only {met} seams tested");
         eprintln!("{met} seams, {both} rays met both sides");
+    }
+
+    /// A ray leaving a point of a triangle (interpolated as hits are, its origin offset by
+    /// the one rule) never meets that triangle: the t within its own rounding of 0 is no hit.
+    /// Long thin triangles far from the origin, as a map's walls (the f32 frame let 2 of 100,000
+    /// such rays meet their own triangle; sauerbraten-zdm2's walls shadowed themselves).
+    #[test]
+    fn a_ray_leaving_a_triangle_does_not_meet_it() {
+        use crate::geometry::point::ShadingPoint;
+        use crate::geometry::ray_origin::{interpolation_error, offset_origin, shadow_ray_from};
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut met = 0;
+        for _ in 0..300_000 {
+            let centre = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 20.0;
+            let mut corner = || centre + Vec3::new(next() - 0.5, 4.0 * (next() - 0.5), 0.01 * (next() - 0.5));
+            let v = [corner(), corner(), corner()];
+            let n = (v[1] - v[0]).cross(v[2] - v[0]).normalize_or_zero();
+            if n == Vec3::ZERO {
+                continue;
+            }
+            let (b1, b2) = (next(), next());
+            if b1 + b2 > 1.0 {
+                continue;
+            }
+            let b = [1.0 - b1 - b2, b1, b2];
+            let p = b[0] * v[0] + b[1] * v[1] + b[2] * v[2];
+            let point = ShadingPoint { p, p_error: interpolation_error(b, v), n_geom: n, n_shading: n };
+            // Toward a target above the plane, some nearly grazing.
+            let d = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5);
+            let target = p + 5.0 * (d - d.dot(n) * n) + (0.001 + 3.0 * next()) * n;
+            let origin = offset_origin(&point, target - p);
+            let Some(ray) = shadow_ray_from(origin, target, Vec3::ZERO, -n) else { continue };
+            met += ShearedRay::new(&ray).intersect(&tri(v), ray.tmax).is_some() as u32;
+        }
+        assert_eq!(met, 0, "rays met the triangle they leave");
     }
 
     /// The hit's t and barycentrics against the exact answer, and a miss outside.
