@@ -119,6 +119,16 @@ mod tests {
     use super::*;
     use glam::Vec3;
 
+    /// A uniform [0, 1) f32 stream (xorshift64, 24 bits).
+    fn uniform(mut state: u64) -> impl FnMut() -> f32 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
     fn tri(v: [Vec3; 3]) -> Triangle {
         Triangle { v0: v[0].into(), v1: v[1].into(), v2: v[2].into() }
     }
@@ -129,13 +139,7 @@ mod tests {
     /// when this test replaced it).
     #[test]
     fn a_ray_through_a_shared_edge_meets_a_side() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = uniform(0x2545_f491_4f6c_dd1d);
         let (mut met, mut both) = (0, 0);
         for k in 0..200_000 {
             let mut point = |s: f32| Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * s;
@@ -175,13 +179,7 @@ mod tests {
     fn a_ray_leaving_a_triangle_does_not_meet_it() {
         use crate::geometry::point::ShadingPoint;
         use crate::geometry::ray_origin::{interpolation_error, offset_origin, shadow_ray_from};
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut next = uniform(0x9e37_79b9_7f4a_7c15);
         let mut met = 0;
         for _ in 0..300_000 {
             let centre = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 20.0;

@@ -71,11 +71,7 @@ impl Scratch {
         let Scratch { samples, uncertain, starts, cursor, cell_of, order, a, b, grid_rel, near, .. } = self;
         // Counted samples lie in [0, 1]^2; f32 rounding may put one a cell off its position,
         // which the counting's margin of a row and a column covers.
-        let cell = |x: &LightSample| {
-            let i = ((x.a * nx as f32) as usize).min(nx - 1);
-            let j = ((x.b * ny as f32) as usize).min(ny - 1);
-            i + nx * j
-        };
+        let cell = |x: &LightSample| strata_cell(x, nx, ny);
         starts.clear();
         starts.resize(cells + 1, 0);
         // Each sample's cell, or `u32::MAX` where it is not counted on this side.
@@ -120,11 +116,7 @@ impl Scratch {
         let Scratch { samples, uncertain, mixed, regions, starts, cursor, order, region_marks, .. } = self;
         // f32 rounding or the horizon warp may put a sample a little off its cell: clamped
         // here, and a region visits a cell of margin around its box.
-        let cell = |x: &LightSample| {
-            let i = ((x.a * nx as f32) as usize).min(nx - 1);
-            let j = ((x.b * ny as f32) as usize).min(ny - 1);
-            i + nx * j
-        };
+        let cell = |x: &LightSample| strata_cell(x, nx, ny);
         let tested = |k: usize| !uncertain[k] && !samples[k].proven && (samples[k].height < 0.0) == below;
         starts.clear();
         starts.resize(nx * ny + 1, 0);
@@ -215,3 +207,12 @@ impl Scratch {
 pub(super) const MIXED: u8 = 1;
 pub(super) const MIXED_LIT: u8 = 2;
 pub(super) const MIXED_BLOCKED: u8 = 3;
+
+/// The strata cell (row-major in an `nx` x `ny` grid) where a sample landed, clamped to the
+/// grid (a negative coordinate saturates to 0).
+#[inline(always)]
+fn strata_cell(x: &LightSample, nx: usize, ny: usize) -> usize {
+    let i = ((x.a * nx as f32) as usize).min(nx - 1);
+    let j = ((x.b * ny as f32) as usize).min(ny - 1);
+    i + nx * j
+}
