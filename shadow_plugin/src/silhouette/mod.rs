@@ -8,9 +8,9 @@
 //! fold, +-1 for a boundary). So from a reference point `r` on the light, each sample's
 //! count relative to r is a sum over the few edges whose projection separates r from it.
 //! One any-hit ray to the sample with the lowest count then settles the constant: unblocked,
-//! the visible samples are those with that count; blocked, the point is in umbra. Cost: the
-//! point's silhouette edges times the samples (plain per-sample arithmetic), plus one ray,
-//! whatever N.
+//! the visible samples are those with that count; blocked, the point is in umbra. Cost: per
+//! silhouette edge, the rows of light samples its projection spans, plus one ray, whatever
+//! N.
 //!
 //! Exact, or traced: a sample within rounding of a projected edge, outside the point's
 //! shaft, or whose ray may meet a triangle left out of the counting (alpha-tested with
@@ -23,8 +23,9 @@
 //!
 //! Cost: per light, the potential silhouette edges in a BVH with normal cones
 //! (`edge_tree.rs`); per point, one shaft query, exact weights for the edges over the light,
-//! whole strata cells counted at once where an edge's tests are certain over the cell
-//! (`cells.rs`), and one ray per side.
+//! the counting row by row of the strata grid along an L-shaped path from r (`counting.rs`:
+//! runs of cells and whole rows move at once, samples are drawn only where a line passes),
+//! and one ray per side.
 //!
 //! Scene file: `method = "silhouette"`; `[shadows.silhouette]` takes no keys (the sample
 //! count is `[shadows].samples`, as for `traced`).
@@ -41,7 +42,6 @@ fn uniform(mut state: u64) -> impl FnMut() -> f64 {
         (state >> 11) as f64 / (1u64 << 53) as f64
     }
 }
-mod cells;
 mod counting;
 mod edge_tree;
 mod edges;

@@ -1,8 +1,7 @@
 //! One point's visibility from its silhouette edges (see the module doc of `silhouette`):
 //! the shaft's candidates, their weights and projections, the counts, one ray.
 
-use super::cells::{Verdict, edge_verdicts};
-use super::counting::{ActiveEdge, Counts, count_edge, count_edge_on_grid};
+use super::counting::{ActiveEdge, Binned, EdgeRows, count_edges, is_reference};
 use super::projection::Frame;
 use super::scratch::{MIXED, MIXED_BLOCKED, MIXED_LIT, SCRATCH, Scratch};
 use super::{Fallback, Silhouette};
@@ -32,12 +31,13 @@ const REFERENCES: [[f64; 2]; 12] = [
     [0.9375, 0.5],
 ];
 
-/// The reference point: the first of [`REFERENCES`] clear of every edge's band.
+/// The reference point: the first of [`REFERENCES`] clear of every edge's band, its
+/// column clear of every end ([`is_reference`]).
 fn reference(active: &[ActiveEdge]) -> Result<DVec2, Fallback> {
     REFERENCES
         .iter()
         .map(|&[a, b]| DVec2::new(a, b))
-        .find(|r| active.iter().all(|e| e.side_at(r.x as f32, r.y as f32).abs() > 4.0 * e.band))
+        .find(|&r| is_reference(active, r))
         .ok_or(Fallback::NoReference)
 }
 
@@ -115,8 +115,10 @@ fn relative_counts(
     s.samples.clear();
     s.uncertain.clear();
     samples.for_each(|x| {
+        // The counting's rows hold samples on the light only (a proven one off it, if f32
+        // rounding ever put one there, is traced too).
         let inside = (0.0..=1.0).contains(&x.a) && (0.0..=1.0).contains(&x.b);
-        s.uncertain.push(!x.proven && !inside);
+        s.uncertain.push(!inside);
         s.samples.push(x);
     });
     s.rel.clear();
@@ -200,15 +202,24 @@ fn side_counts(
     }
     let r = reference(&s.active)?;
     s.bin(samples.strata(), side.below);
-    let grid = samples.strata();
-    let grid = (grid.0 as usize, grid.1 as usize);
-    for e in &s.active {
-        let counts = Counts { a: &s.a, b: &s.b, rel: &mut s.grid_rel, near: &mut s.near };
-        count_edge_on_grid(e, r, grid, &s.starts, counts);
-    }
-    for (pos, &k) in s.order.iter().enumerate() {
-        s.rel[k as usize] = s.grid_rel[pos];
-        s.uncertain[k as usize] |= s.near[pos] != 0;
+    let (nx, ny) = samples.strata();
+    let (nx, ny) = (nx as usize, ny as usize);
+    let cells = nx * ny;
+    let Scratch { active, plans, starts, cell_steps, a, b, grid_rel, near, order, rel, uncertain, .. } = s;
+    plans.clear();
+    plans.extend(active.iter().map(|e| EdgeRows::new(e, r, ny)));
+    cell_steps.clear();
+    cell_steps.resize(cells + 1, 0);
+    let binned = Binned { grid: (nx, ny), starts, a, b, rel: grid_rel, near };
+    count_edges(plans, binned, cell_steps, |_, _, _| true);
+    let mut step = 0;
+    for c in 0..cells {
+        step += cell_steps[c];
+        for pos in starts[c] as usize..starts[c + 1] as usize {
+            let k = order[pos] as usize;
+            rel[k] = grid_rel[pos] + step;
+            uncertain[k] |= near[pos] != 0;
+        }
     }
     Ok(())
 }
@@ -308,8 +319,10 @@ fn count_cells(
 ) -> Result<Option<f32>, Fallback> {
     let r = reference(&s.active)?;
     let (nx, ny) = samples.strata();
-    let (grid, cells) = ((nx as usize, ny as usize), (nx * ny) as usize);
-    let Scratch { active, a, b, grid_rel: rel, near, drawn, .. } = s;
+    let (nx, ny, cells) = (nx as usize, ny as usize, (nx * ny) as usize);
+    let Scratch { active, plans, starts, cell_steps, a, b, grid_rel: rel, near, drawn, .. } = s;
+    plans.clear();
+    plans.extend(active.iter().map(|e| EdgeRows::new(e, r, ny)));
     for v in [&mut *a, &mut *b] {
         v.clear();
         v.resize(cells, f32::NAN);
@@ -320,26 +333,31 @@ fn count_cells(
     near.resize(cells, 0);
     drawn.clear();
     drawn.resize(cells, false);
-    let mut below_horizon = false;
-    for e in active.iter() {
-        edge_verdicts(e, r, grid, |cell, verdict| match verdict {
-            Verdict::Nothing => {}
-            Verdict::Step(step) => rel[cell] += step,
-            Verdict::Exact => {
-                if !drawn[cell] {
-                    drawn[cell] = true;
-                    match samples.at(cell as u32) {
-                        Some(x) => (a[cell], b[cell]) = (x.a, x.b),
-                        None => below_horizon = true,
-                    }
-                }
-                let counts = Counts { a: &a[..], b: &b[..], rel: &mut rel[..], near: &mut near[..] };
-                count_edge(e, r, cell..cell + 1, counts);
+    starts.clear();
+    starts.extend(0..=cells as u32);
+    cell_steps.clear();
+    cell_steps.resize(cells + 1, 0);
+    // Only the cells some edge tests sample by sample are drawn (the stream jumps to each
+    // stratum); runs of cells and whole rows move without their samples.
+    let binned = Binned { grid: (nx, ny), starts, a, b, rel: &mut rel[..], near: &mut near[..] };
+    let drawn_all = count_edges(plans, binned, cell_steps, |cells, a, b| {
+        for c in cells {
+            if drawn[c] {
+                continue;
             }
-        });
-    }
-    if below_horizon {
+            drawn[c] = true;
+            let Some(x) = samples.at(c as u32) else { return false };
+            (a[c], b[c]) = (x.a, x.b);
+        }
+        true
+    });
+    if !drawn_all {
         return Ok(None);
+    }
+    let mut step = 0;
+    for (rel, &d) in rel.iter_mut().zip(cell_steps.iter()) {
+        step += d;
+        *rel += step;
     }
     // The lowest count's first cell (the sample the one-by-one counting would aim at), and
     // its ray.

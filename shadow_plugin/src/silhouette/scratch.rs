@@ -2,7 +2,7 @@
 //! shaft's candidates, the active edges and flagged triangles' regions, the samples with
 //! their counts and marks, and the strata grid's bins; with the passes that fill them.
 
-use super::counting::ActiveEdge;
+use super::counting::{ActiveEdge, EdgeRows};
 use super::edges::ALPHA;
 use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
 use super::{Fallback, Silhouette};
@@ -36,6 +36,10 @@ pub(super) struct Scratch {
     pub(super) b: Vec<f32>,
     pub(super) grid_rel: Vec<i32>,
     pub(super) near: Vec<u8>,
+    /// The active edges' work over the strata rows, and the steps that move runs of cells
+    /// at once (a difference array over the cells).
+    pub(super) plans: Vec<EdgeRows>,
+    pub(super) cell_steps: Vec<i32>,
     /// Cell by cell (`query::count_cells`): which cells' samples are drawn.
     pub(super) drawn: Vec<bool>,
     /// Per sample: held by an alpha-only region (1) or another (2) ([`Scratch::test_regions`]).
