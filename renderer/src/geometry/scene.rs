@@ -247,6 +247,28 @@ impl Scene {
         }
     }
 
+    /// [`Self::segment_occluded_from`] through every triangle but those `skip` holds: for a
+    /// method that answers for those triangles by other means (the same ray and tests).
+    pub fn segment_occluded_from_except(
+        &self,
+        origin: Vec3,
+        target: Vec3,
+        (target_error, target_normal): (Vec3, Vec3),
+        skip: impl Fn(usize) -> bool,
+    ) -> bool {
+        let Some(ray) = shadow_ray_from(origin, target, target_error, target_normal) else { return false };
+        crate::util::profile::count_ray();
+        match &self.bvh {
+            None => false,
+            Some(bvh) => {
+                let sheared = ShearedRay::new(&ray);
+                !bvh.ray_traverse_miss(ray, |r, slot| {
+                    if skip(slot) { f32::INFINITY } else { self.hit_distance(&sheared, r.tmax, slot) }
+                })
+            }
+        }
+    }
+
     /// Whether the shadow ray [`Scene::segment_occluded_from`] builds meets triangle `slot`
     /// (alpha test honoured): the same ray and the same test its traversal applies to that
     /// triangle, for a method that knows which few triangles can block it.

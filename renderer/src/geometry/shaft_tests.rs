@@ -270,3 +270,23 @@ fn a_ceiling_flush_with_the_light_is_not_separated_from_grazing_rays() {
     }
     assert_eq!(differ, 0, "{differ} of 1800 points differ");
 }
+
+/// The any-hit query with a skip set: two stacked plates over a point; a ray up through
+/// both is blocked while either counts, and passes when both are skipped. Slots 0..1 are the
+/// lower plate's, 2..3 the upper's.
+#[test]
+fn occluded_except_passes_only_the_skipped_triangles() {
+    let lower = quad_triangles(DVec3::new(0.0, 0.5, 0.0), DVec3::X, DVec3::Z);
+    let upper = quad_triangles(DVec3::new(0.0, 1.0, 0.0), DVec3::X, DVec3::Z);
+    let s = triangles_scene(&[lower[0], lower[1], upper[0], upper[1]], light());
+    let light = &s.lights[0];
+    let origin = Vec3::new(0.05, 0.0, 0.05);
+    let target = light.point(0.5, 0.5);
+    let ends = (light.point_error(0.5, 0.5), light.normal);
+    let blocked = |skip: &dyn Fn(usize) -> bool| s.segment_occluded_from_except(origin, target, ends, skip);
+    assert!(s.segment_occluded_from(origin, target, ends.0, ends.1));
+    assert!(blocked(&|_| false));
+    assert!(blocked(&|slot| slot < 2), "the upper plate still blocks");
+    assert!(blocked(&|slot| slot >= 2), "the lower plate still blocks");
+    assert!(!blocked(&|_| true), "nothing left to block");
+}

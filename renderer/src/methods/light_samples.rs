@@ -196,6 +196,15 @@ impl<'a> PointSamples<'a> {
         )
     }
 
+    /// Whether `s`'s shadow ray ([`PointSamples::occluded`]'s) meets a triangle other than
+    /// those `skip` holds.
+    pub fn occluded_except(&self, scene: &Scene, s: &LightSample, skip: impl Fn(usize) -> bool) -> bool {
+        let point = &self.q.point;
+        let from = if s.height < 0.0 { offset_origin(point, s.target - point.p) } else { self.origin };
+        let ends = (self.light.point_error(s.a, s.b), self.light.normal);
+        scene.segment_occluded_from_except(from, s.target, ends, skip)
+    }
+
     /// Whether `s`'s shadow ray is blocked: `traced`'s own ray.
     #[inline(always)]
     pub fn occluded(&self, scene: &Scene, s: &LightSample) -> bool {

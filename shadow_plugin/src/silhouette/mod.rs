@@ -142,9 +142,6 @@ struct Counters {
     fallback_no_reference: AtomicU64,
     fallback_no_shaft: AtomicU64,
     fallback_inconsistent: AtomicU64,
-    /// Sides whose lowest count was a sample that may meet an alpha-tested triangle (the
-    /// one ray cannot be aimed at it): their such samples were traced.
-    fallback_mixed: AtomicU64,
     alpha_tests: AtomicU64,
 }
 
@@ -252,7 +249,6 @@ impl LightShadowing for Silhouette {
             ("points_fallback_no_reference", load(&c.fallback_no_reference)),
             ("points_fallback_no_shaft", load(&c.fallback_no_shaft)),
             ("points_fallback_inconsistent", load(&c.fallback_inconsistent)),
-            ("sides_alpha_lowest", load(&c.fallback_mixed)),
             ("alpha_triangle_tests", load(&c.alpha_tests)),
             ("edges", s.edges),
             ("edges_potential", s.potential),

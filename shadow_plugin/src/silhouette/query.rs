@@ -224,9 +224,11 @@ fn side_counts(
     Ok(())
 }
 
-/// The count of one side's lit samples (D = 0), or `None` in umbra: the lowest count is lit
-/// iff its ray is unblocked (none is traced where a shaft proved a sample lit). Also `None`
-/// when every sample of the side is traced.
+/// The count of one side's lit samples (D = 0 over the counted triangles), or `None` in
+/// umbra: the lowest count is lit iff its ray, through the counted triangles only, is
+/// unblocked (none is traced where a shaft proved a sample lit). Also `None` when every
+/// sample of the side is traced. A sample that may also meet an alpha-tested triangle with
+/// holes ([`MIXED`]) is then settled by [`test_mixed`].
 fn lit_count(
     plugin: &Silhouette,
     scene: &Scene,
@@ -235,19 +237,11 @@ fn lit_count(
     below: bool,
     rays: &mut u64,
 ) -> Result<Option<i32>, Fallback> {
-    let counters = &plugin.counters;
-    // One pass: the first sample with the lowest count, and the first proven one. The ray
-    // that settles the constant must meet opaque triangles only: a sample that may meet an
-    // alpha-tested one is not aimed at; if one of them has a count below every other's, they
-    // are all traced instead.
+    // One pass: the first sample with the lowest count, and the first proven one.
     let on_side = |k: usize| !s.uncertain[k] && (s.samples[k].height < 0.0) == below;
-    let (mut m, mut proven, mut mixed_min) = (None::<usize>, None::<usize>, i32::MAX);
+    let (mut m, mut proven) = (None::<usize>, None::<usize>);
     for (k, x) in s.samples.iter().enumerate() {
         if !on_side(k) {
-            continue;
-        }
-        if s.mixed[k] != 0 {
-            mixed_min = mixed_min.min(s.rel[k]);
             continue;
         }
         if m.is_none_or(|m| s.rel[k] < s.rel[m]) {
@@ -257,16 +251,6 @@ fn lit_count(
             proven = Some(k);
         }
     }
-    if m.is_none_or(|m| mixed_min < s.rel[m]) && mixed_min != i32::MAX {
-        // The lowest count is a sample's that may meet an alpha-tested triangle: the side's
-        // such samples are traced one by one (the rest keep their counts and `m`).
-        for k in 0..s.samples.len() {
-            if s.mixed[k] != 0 && !s.uncertain[k] && (s.samples[k].height < 0.0) == below {
-                (s.mixed[k], s.uncertain[k]) = (0, true);
-            }
-        }
-        counters.fallback_mixed.fetch_add(1, Ordering::Relaxed);
-    }
     let Some(m) = m else { return Ok(None) };
     match proven {
         // A sample proven lit has D = 0: its count is the lowest.
@@ -275,7 +259,12 @@ fn lit_count(
         Some(_) => Err(Fallback::Inconsistent),
         None => {
             *rays += 1;
-            Ok((!samples.occluded(scene, &s.samples[m])).then_some(s.rel[m]))
+            // The triangles left out of the counting are not met by a settled sample's ray,
+            // except alpha-tested ones with holes: the ray passes them all, so that it
+            // measures the count's constant alone.
+            let flags = &plugin.edges.flags;
+            let blocked = samples.occluded_except(scene, &s.samples[m], |slot| flags[slot] != 0);
+            Ok((!blocked).then_some(s.rel[m]))
         }
     }
 }
