@@ -174,7 +174,9 @@ pub(super) fn count_row(t: &EdgeTests, row_leg: bool, column_leg: bool, row: Row
         let step = if crosses_row { if pos { w } else { -w } } else { 0 };
         let column_step = if crosses_column { if pos_c { w } else { -w } } else { 0 };
         let in_box = (x > x_lo) & (x < x_hi) & (y > y_lo) & (y < y_hi);
-        let near_sample = row_leg & (v.abs() < band) & in_box;
+        // Near the line and either near the edge, or where the row leg reads its side (a
+        // shallow line beside the edge's box): traced.
+        let near_sample = row_leg & (v.abs() < band) & (in_box | spans);
         // Where both legs may cross (the corner beside the edge, away from its ends), a
         // wrong side for the corner moves one crossing to the other leg and the sum stands;
         // where one leg alone may, the corner's side decides it.
@@ -327,7 +329,7 @@ mod tests {
             for _ in 0..(1 + trial % 12) {
                 let size = [0.002, 0.05, 0.6, 1.2][(next() * 4.0) as usize];
                 let c = DVec2::new(next() * 1.02 - 0.01, next() * 1.02 - 0.01);
-                let mut t = [0; 3].map(|_| c + size * DVec2::new(next() - 0.5, next() - 0.5));
+                let t = [0; 3].map(|_| c + size * DVec2::new(next() - 0.5, next() - 0.5));
                 let t = t.map(|p| p.clamp(DVec2::splat(-0.01), DVec2::splat(1.01)));
                 let t = if (t[1] - t[0]).perp_dot(t[2] - t[0]) > 0.0 { t } else { [t[0], t[2], t[1]] };
                 let band = (1e-6 * (t[1] - t[0]).length()) as f32 + 1e-7;
