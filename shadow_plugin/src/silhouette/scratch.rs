@@ -73,8 +73,8 @@ impl Scratch {
         let (nx, ny) = (nx as usize, ny as usize);
         let cells = nx * ny;
         let Scratch { samples, uncertain, starts, cursor, cell_of, order, a, b, grid_rel, near, .. } = self;
-        // Counted samples lie in [0, 1]^2; f32 rounding may put one a cell off its position,
-        // which the counting's margin of a row and a column covers.
+        // Counted samples lie in [0, 1]^2; f32 rounding may bin one just past its cell's
+        // border, which the counting's `CELL_MARGIN` covers.
         let cell = |x: &LightSample| strata_cell(x, nx, ny);
         starts.clear();
         starts.resize(cells + 1, 0);
