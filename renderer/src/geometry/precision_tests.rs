@@ -311,7 +311,7 @@ fn tiny_and_huge_triangles_are_hit_and_occlude() {
         };
         assert_eq!(traced_at(&scene, &below, 1), 0.0, "the {s} triangle does not occlude");
         // And its shaft is not proven clear.
-        let shaft = Shaft::new(&light, &below.point, scene.coordinate_bound()).unwrap();
+        let shaft = Shaft::new(&light, &below.point).unwrap();
         assert!(!scene.shaft_clear(&shaft));
     }
 }
@@ -331,7 +331,6 @@ fn measure_false_occlusion() {
         let file = crate::load::config::SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));
         let scene = Scene::load(&file, path).unwrap_or_else(|e| panic!("{e}"));
         let (w, h) = (320u32, 240u32);
-        let bound = scene.coordinate_bound();
         for (k, light) in scene.lights.iter().enumerate() {
             let mut counts = [(0usize, 0usize, 0usize); 2];
             // Rays (above the geometric tangent plane) whose closest hit is the receiver's own
@@ -376,8 +375,7 @@ fn measure_false_occlusion() {
                                 wachter_binder_origin(hit.point.p, hit.point.n_geom, hit.point.n_geom)
                             }
                         };
-                        let Some(shaft) =
-                            Shaft::with_apex(light, [0.0, 1.0], [0.0, 1.0], &hit.point, apex, bound)
+                        let Some(shaft) = Shaft::with_apex(light, [0.0, 1.0], [0.0, 1.0], &hit.point, apex)
                         else {
                             continue;
                         };

@@ -6,8 +6,8 @@ use crate::geometry::camera::Camera;
 use crate::geometry::light::RectLight;
 use crate::geometry::material::{Material, Texture};
 use crate::geometry::point::ShadingPoint;
-use crate::geometry::ray_origin::{interpolation_error, shadow_ray, shadow_ray_from};
-use crate::geometry::watertight::ShearedRay;
+use crate::geometry::ray_origin::{shadow_ray, shadow_ray_from};
+use crate::geometry::watertight::{HitPoint, ShearedRay};
 use glam::{DVec3, Vec2, Vec3};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::Ray, triangle::Triangle};
 use std::time::Duration;
@@ -26,7 +26,7 @@ pub struct TriangleShading {
 pub struct SurfaceHit {
     pub t: f32,
     /// The hit point (interpolated from the triangle's vertices, not `o + t d`), its error
-    /// bound ([`interpolation_error`]) and its normals.
+    /// bound ([`ShearedRay::hit_point`]: f64 barycentrics) and its normals.
     pub point: ShadingPoint,
     pub uv: Vec2,
     pub material: u32,
@@ -169,13 +169,9 @@ impl Scene {
         }
         let slot = hit.primitive_id as usize;
         let tri = &self.triangles[slot];
-        let (_, b1, b2) = sheared.with_tmin(f32::NEG_INFINITY).intersect(tri, f32::INFINITY)?;
-        // The hit point from the vertices, not from o + t d: its error is then bounded by
-        // the vertices' magnitudes alone, whatever the ray's length.
-        let v = [Vec3::from(tri.v0), Vec3::from(tri.v1), Vec3::from(tri.v2)];
-        let b = [1.0 - b1 - b2, b1, b2];
-        let p = b[0] * v[0] + b[1] * v[1] + b[2] * v[2];
-        let p_error = interpolation_error(b, v);
+        // The hit point from the vertices, not from o + t d (its error is then bounded
+        // whatever the ray's length), in f64 (whatever the triangle's size).
+        let HitPoint { p, p_error, b1, b2 } = sheared.hit_point(tri)?;
         let d = Vec3::from(ray.direction);
         let mut n_geom = Self::face_normal(tri);
         let front_face = n_geom.dot(d) < 0.0;

@@ -20,8 +20,9 @@
 //! outside only by more than gamma(5) of `|normal| . |vertex - anchor|`, the rounding of its
 //! own evaluation. The side faces' offsets are the largest projection of the hull's own
 //! vertices, plus the light points' error bound (3x: sample, corner, the target's offset),
-//! the rays' rounding (gamma(16) of their length) and gamma(32) of the scene's largest
-//! coordinate for the intersector's acceptance rounding: slack there only costs culling.
+//! the rays' rounding (gamma(16) of their length) and gamma(32) of the apex's magnitude; the
+//! f64 intersector's acceptance (relative to each triangle's own distance from the ray's
+//! origin) lies inside each test's rounding, so no margin grows with the scene's size.
 //! The two faces that must separate touching geometry take no such slack: the cut sits just
 //! under the apex (its height `h_o` over the point less gamma(8) of it, the rounding of
 //! `h_o`), and covered rays end at least `h_o` above the point ([`covers`]); the light's face
@@ -131,27 +132,20 @@ pub struct Shaft {
 
 impl Shaft {
     /// The shaft of surface point `point` (its geometric normal on the side the light is
-    /// tested from) toward `light`, in a scene whose coordinates are at most `scene_bound` in
-    /// magnitude ([`Scene::coordinate_bound`]).
+    /// tested from) toward `light`.
     ///
     /// It holds every shadow ray of [`crate::geometry::ray_origin::shadow_ray`] from the point to a
     /// light point the [`covers`] test accepts. `None` if the light's rectangle is degenerate or the
     /// apex is not clearly in front of it.
-    pub fn new(light: &RectLight, point: &ShadingPoint, scene_bound: f32) -> Option<Shaft> {
-        Self::to_part(light, [0.0, 1.0], [0.0, 1.0], point, scene_bound)
+    pub fn new(light: &RectLight, point: &ShadingPoint) -> Option<Shaft> {
+        Self::to_part(light, [0.0, 1.0], [0.0, 1.0], point)
     }
 
     /// The shaft to the part `a in [a0, a1], b in [b0, b1]` of the light (the coordinates of
     /// [`RectLight::point`]).
-    pub fn to_part(
-        light: &RectLight,
-        a: [f32; 2],
-        b: [f32; 2],
-        point: &ShadingPoint,
-        scene_bound: f32,
-    ) -> Option<Shaft> {
+    pub fn to_part(light: &RectLight, a: [f32; 2], b: [f32; 2], point: &ShadingPoint) -> Option<Shaft> {
         let origin = offset_origin(point, point.n_geom);
-        Self::with_apex(light, a, b, point, origin, scene_bound)
+        Self::with_apex(light, a, b, point, origin)
     }
 
     /// [`Shaft::to_part`] for rays that all start at `apex`, above the point's tangent plane
@@ -162,7 +156,6 @@ impl Shaft {
         b: [f32; 2],
         point: &ShadingPoint,
         apex: Vec3,
-        scene_bound: f32,
     ) -> Option<Shaft> {
         let (p, n_geom) = (point.p, point.n_geom);
         if !is_positive((a[1] - a[0]) * (b[1] - b[0])) || !is_positive(light.area()) {
@@ -190,7 +183,11 @@ impl Shaft {
         }
         let apex_a = Vec3A::from(apex);
         let hull = [apex_a, corners[0].into(), corners[1].into(), corners[2].into(), corners[3].into()];
-        let slack = 3.0 * e_light + gamma(16) * reach + gamma(32) * scene_bound.max(apex.abs().max_element());
+        // No term of the scene's size: the intersector works in f64 relative to the ray's
+        // origin, so what it accepts beyond a triangle (~1e-14 of the triangle's distance
+        // from the apex) lies far inside each test's own f32 rounding of that distance. A far
+        // triangle once widened every shaft (a 1 m quad at 10^6 m: 13.5x the rays).
+        let slack = 3.0 * e_light + gamma(16) * reach + gamma(32) * apex.abs().max_element();
         // Unused faces (the depth clips until set) have a zero normal and an infinite offset:
         // nothing is outside them.
         let mut faces =
@@ -437,7 +434,6 @@ pub fn clear_leaves_mapped(
         return (0, 0);
     }
     let apex = offset_origin(point, point.n_geom);
-    let scene_bound = scene.coordinate_bound();
     // The first stratum of leaf x (of l leaves over n strata); the light coordinate of the
     // leaf's lower edge is that over n.
     let first = |x: usize, n: usize, l: usize| (x * n).div_ceil(l);
@@ -458,7 +454,7 @@ pub fn clear_leaves_mapped(
         let a = [i0 as f32 / nx as f32, i1 as f32 / nx as f32];
         let b = [j0 as f32 / ny as f32, j1 as f32 / ny as f32];
         let (a, b) = part(a, b);
-        let Some(shaft) = Shaft::with_apex(light, a, b, point, apex, scene_bound) else { continue };
+        let Some(shaft) = Shaft::with_apex(light, a, b, point, apex) else { continue };
         tests += 1;
         if scene.shaft_clear(&shaft) {
             mask |= leaf_rect_bits([x0, x1], [y0, y1]);

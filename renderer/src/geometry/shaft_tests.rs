@@ -30,7 +30,7 @@ const FLOOR: Quad = ([0.0, 0.0, 0.0], [20.0, 0.0, 0.0], [0.0, 0.0, -20.0]);
 
 fn clear(s: &Scene, p: Vec3, n: Vec3) -> bool {
     let point = ShadingPoint { p, p_error: point_error(p), n_geom: n, n_shading: n };
-    let shaft = Shaft::new(&s.lights[0], &point, s.coordinate_bound()).expect("a shaft");
+    let shaft = Shaft::new(&s.lights[0], &point).expect("a shaft");
     s.shaft_clear(&shaft)
 }
 
@@ -216,8 +216,7 @@ fn a_long_thin_shaft_is_not_proven_clear_through_a_blocker() {
     assert_eq!(a.to_bits(), b.to_bits(), "plain {a} culled {b}");
     // The apex lies inside its side faces (with their slack) for every part of the light.
     for (a0, b0) in [(0.0, 0.0), (0.5, 0.5), (0.25, 0.75), (0.75, 0.0)] {
-        let shaft =
-            Shaft::to_part(&light, [a0, a0 + 0.25], [b0, b0 + 0.25], &q.point, s.coordinate_bound()).unwrap();
+        let shaft = Shaft::to_part(&light, [a0, a0 + 0.25], [b0, b0 + 0.25], &q.point).unwrap();
         for f in &shaft.faces[..4] {
             assert!(!f.outside(shaft.vertices[0]), "apex outside a side face of part ({a0}, {b0})");
         }

@@ -89,6 +89,67 @@ impl ShearedRay {
     }
 }
 
+impl ShearedRay {
+    /// The point where the ray meets `tri`, from the test's own f64 barycentrics, with a
+    /// per-component bound on its error; `None` where the test would find no hit at any t.
+    ///
+    /// Why not f32 barycentrics (`b0 v0 + b1 v1 + b2 v2`, pbrt's way): their relative
+    /// rounding (6e-8) times the triangle's size moved a 10^8 m floor's hit points by metres,
+    /// and the error bound, as large, pushed shadow rays off by as much. Here the point is
+    /// `v0 + b1 (v1 - v0) + b2 (v2 - v0)` in f64: the edge vectors of an axis-aligned floor
+    /// have exact zeros across it, so its height stays exact whatever the floor's size, and
+    /// elsewhere the f64 error is ~1e-16 of the triangle's size. The bound is that error
+    /// (the edge functions' rounding carried through the division, then the interpolation's)
+    /// plus the exact distance of the f64 point to its f32 rounding.
+    pub fn hit_point(&self, tri: &Triangle) -> Option<HitPoint> {
+        let (p0, p1, p2) = (self.vertex(tri.v0), self.vertex(tri.v1), self.vertex(tri.v2));
+        let e = [edge(p1, p2), edge(p2, p0), edge(p0, p1)];
+        let det = e[0] + e[1] + e[2];
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let (b1, b2) = (e[1] / det, e[2] / det);
+        // The edge functions' rounding (t_rounding's delta_e), the sum's, then the quotient's:
+        // |d b_i| <= (de + |b_i| d det) / |det| + u |b_i|, doubled for the second-order terms.
+        let max = |k: usize| [p0, p1, p2].iter().fold(0.0f64, |m, v| m.max(v[k].abs()));
+        let (max_x, max_y, max_z) = (max(0), max(1), max(2));
+        let (delta_x, delta_y) = (gamma64(5) * (max_x + max_z), gamma64(5) * (max_y + max_z));
+        let delta_e = 2.0 * (gamma64(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+        let delta_det = 3.0 * delta_e + gamma64(2) * (e[0].abs() + e[1].abs() + e[2].abs());
+        let db = |b: f64| 2.0 * ((delta_e + b.abs() * delta_det) / det.abs() + gamma64(1) * b.abs());
+        let v0 = Vec3::from(tri.v0).as_dvec3();
+        let (d1, d2) = (Vec3::from(tri.v1).as_dvec3() - v0, Vec3::from(tri.v2).as_dvec3() - v0);
+        let p = v0 + b1 * d1 + b2 * d2;
+        // The differences (one rounding each), the products and the two sums: gamma(4).
+        let interpolation = gamma64(4) * (v0.abs() + (b1 * d1).abs() + (b2 * d2).abs());
+        let error = interpolation + db(b1) * d1.abs() + db(b2) * d2.abs();
+        let p32 = p.as_vec3();
+        let rounding = (p32.as_dvec3() - p).abs();
+        // Rounded up to f32 (one ulp over), plus the smallest normal f32 so that an exact
+        // point of a plane through 0 still leaves it.
+        let p_error = ((error + rounding) * (1.0 + 2.0 * f32::EPSILON as f64)).as_vec3()
+            + Vec3::splat(f32::MIN_POSITIVE);
+        Some(HitPoint { p: p32, p_error, b1: b1 as f32, b2: b2 as f32 })
+    }
+}
+
+/// A hit's point in f32 with its error bound and barycentrics ([`ShearedRay::hit_point`]).
+#[derive(Debug, Clone, Copy)]
+pub struct HitPoint {
+    pub p: Vec3,
+    pub p_error: Vec3,
+    /// The weights of `v1` and `v2` (for attributes: normals, uvs).
+    pub b1: f32,
+    pub b2: f32,
+}
+
+/// `gamma(n)` in f64's unit roundoff.
+#[inline(always)]
+fn gamma64(n: u32) -> f64 {
+    let nu = n as f64 * f64::EPSILON * 0.5;
+    nu / (1.0 - nu)
+}
+
 /// A bound on the rounding of a hit's t (pbrt-v4's `deltaT`, Pharr et al. 2023, 6.8.7), in
 /// f64's unit roundoff: from the frame's coordinates' (translation and shear: gamma(5) of x
 /// or y plus z, gamma(3) of the scaled z) through the edge functions and their weighted sum.

@@ -149,7 +149,16 @@ struct PrecisionTally {
     imprecise: u64,
     /// The farthest imprecise triangle's distance from the camera and its f32 spacing.
     imprecise_farthest: (f64, f64),
+    oversized: u64,
+    /// The oversized triangle whose rounding reaches farthest: that reach (m), a corner
+    /// (world space) and its plane's distance from the camera.
+    oversized_worst: (f64, DVec3, f64),
 }
+
+/// The intersector's rounding of a hit's distance, as a fraction of its triangle's reach from
+/// the ray's origin (`watertight::t_rounding` is ~150 f64 units for a well-shaped triangle;
+/// more for slivers): hits nearer than that are not found.
+const INTERSECTOR_ROUNDING: f64 = 200.0 * f64::EPSILON * 0.5;
 
 impl PrecisionTally {
     /// The unit face normal (render space) of the world-space triangle `p` if f32 can hold
@@ -183,7 +192,25 @@ impl PrecisionTally {
             self.imprecise += 1;
         }
         let m = (q[1] - q[0]).abs().max_element();
-        Some(((q[1] - q[0]) / m).cross((q[2] - q[0]) / m).normalize().as_vec3())
+        let face = ((q[1] - q[0]) / m).cross((q[2] - q[0]) / m).normalize();
+        self.check_size(q, face, origin);
+        Some(face.as_vec3())
+    }
+
+    /// Counts the triangle (render space `q`, unit normal `face`) if it is so large against
+    /// its plane's distance from the camera that the intersector cannot place the hits
+    /// camera rays make on it: its rounding over 1% of that distance (a floor 10^14 m
+    /// wide seen from 2 m). Finer than the hit rounding, hits are exact (10^12 m is).
+    fn check_size(&mut self, q: [DVec3; 3], face: DVec3, origin: DVec3) {
+        let reach = q.iter().map(|v| v.length()).fold(0.0, f64::max);
+        let rounding = INTERSECTOR_ROUNDING * reach;
+        let plane = face.dot(q[0]).abs();
+        if plane > 0.0 && rounding > 0.01 * plane {
+            if rounding > self.oversized_worst.0 {
+                self.oversized_worst = (rounding, q[0] + origin, plane);
+            }
+            self.oversized += 1;
+        }
     }
 
     fn warnings(&self) -> Vec<String> {
@@ -218,6 +245,20 @@ impl PrecisionTally {
                  its size); render space is centred on the camera, so nearer geometry keeps its own \
                  precision",
                 self.imprecise
+            ));
+        }
+        if self.oversized > 0 {
+            let (r, c, d) = self.oversized_worst;
+            w.push(format!(
+                "{} triangle(s) too large for the intersector at their distance from the camera: hits on \
+                 them nearer than ~{r:.1e} m are missed; the worst has a corner at [{:.3e}, {:.3e}, {:.3e}] \
+                 and its plane passes {d:.3e} m from the camera (hits are exact on triangles reaching \
+                 less than ~{:.0e} m from it: split those near the camera)",
+                self.oversized,
+                c.x,
+                c.y,
+                c.z,
+                0.01 * d / INTERSECTOR_ROUNDING
             ));
         }
         w

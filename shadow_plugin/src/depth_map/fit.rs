@@ -49,7 +49,6 @@ fn receiver_box(
     visible: &[ShadingPoint],
     params: &DepthMapParams,
 ) -> (Vec2, Vec2, f32) {
-    let scene_bound = scene.coordinate_bound();
     // Receivers: visible points the light reaches, weighted by their irradiance. The
     // frustum leaves out RECEIVER_TRIM of the total irradiance on each side of each axis:
     // surfaces reaching up to the light's plane (a wall beside a ceiling light) would
@@ -74,7 +73,7 @@ fn receiver_box(
                 return None;
             }
             let fitted = !params.switches.fit_shadowed
-                || Shaft::new(light, v, scene_bound).is_none_or(|shaft| !scene.shaft_clear(&shaft));
+                || Shaft::new(light, v).is_none_or(|shaft| !scene.shaft_clear(&shaft));
             Some((p, e, fitted))
         })
         .collect();

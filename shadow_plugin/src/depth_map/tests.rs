@@ -86,7 +86,7 @@ fn a_map_fitted_to_the_shadowed_receivers_covers_them_finely() {
     assert!(fitted.pitch * 4.0 < all_lit.pitch, "pitch {} against {}", fitted.pitch, all_lit.pitch);
     let mut shadowed = 0;
     for v in &visible {
-        let shaft = Shaft::new(&light, v, scene.coordinate_bound()).unwrap();
+        let shaft = Shaft::new(&light, v).unwrap();
         if !scene.shaft_clear(&shaft) {
             shadowed += 1;
             assert!(fitted.query_point(v).is_some(), "{} outside", v.p);

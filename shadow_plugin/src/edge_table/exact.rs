@@ -256,7 +256,7 @@ impl ExactMap {
             let step = 1.0 / PARTS as f32;
             let a = [x[0] as f32 * step, x[1] as f32 * step];
             let b = [y[0] as f32 * step, y[1] as f32 * step];
-            let Some(shaft) = Shaft::to_part(&self.light, a, b, &q.point, self.scene_bound) else {
+            let Some(shaft) = Shaft::to_part(&self.light, a, b, &q.point) else {
                 continue;
             };
             stats.shafts += 1;

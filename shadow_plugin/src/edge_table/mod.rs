@@ -381,7 +381,7 @@ impl EdgeTable {
             panic!("prepare() with the exact reading runs before visibility()");
         };
         let c = &self.exact_counters;
-        if !traced_only && let Some(shaft) = renderer::Shaft::new(&map.light, &q.point, map.scene_bound) {
+        if !traced_only && let Some(shaft) = renderer::Shaft::new(&map.light, &q.point) {
             c.shafts.fetch_add(1, Ordering::Relaxed);
             let origin = renderer::geometry::ray_origin::offset_origin(&q.point, q.point.n_geom);
             if scene.shaft_clear(&shaft)

@@ -108,7 +108,10 @@ impl EdgeSet {
                 }
                 AlphaClass::Mixed => set.flags[slot] |= ALPHA,
             }
-            if v.iter().any(|x| (light.normal.as_dvec3()).dot(x.as_dvec3() - light.center.as_dvec3()) < near)
+            // Plus the rounding of this triangle's own coordinates (not the scene's largest:
+            // a quad 10^6 m away flagged every triangle within 10 m of the light).
+            let band = near + 1e-5 * v.iter().map(|x| x.abs().max_element()).fold(0.0f32, f32::max) as f64;
+            if v.iter().any(|x| (light.normal.as_dvec3()).dot(x.as_dvec3() - light.center.as_dvec3()) < band)
             {
                 set.flags[slot] |= NEAR_LIGHT;
             }
@@ -257,7 +260,8 @@ fn light_corners_grown(light: &RectLight) -> [DVec3; 4] {
 /// Height over the light's plane under which a triangle counts as near the light: shadow
 /// rays stop `SHADOW_EPSILON` of their length short of the (offset) light point, so a
 /// triangle within that fraction of the farthest point's height, or across the plane, may
-/// or may not be met depending on the point. Twice that, plus the coordinates' rounding.
+/// or may not be met depending on the point. Twice that, plus the light's coordinates'
+/// rounding (each triangle adds its own).
 fn near_light_band(scene: &Scene, light: &RectLight) -> f64 {
     let n = light.normal.as_dvec3();
     let c = light.center.as_dvec3();
@@ -271,7 +275,7 @@ fn near_light_band(scene: &Scene, light: &RectLight) -> f64 {
         );
         far = far.max(n.dot(x - c).abs());
     }
-    let scale = scene.coordinate_bound() as f64;
+    let scale = light.corners().iter().map(|c| c.abs().max_element()).fold(0.0f32, f32::max) as f64;
     2.0 * renderer::geometry::ray_origin::SHADOW_EPSILON as f64 * far + 1e-5 * scale
 }
 

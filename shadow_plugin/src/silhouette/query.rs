@@ -90,7 +90,7 @@ fn one_ray(
     s: &mut Scratch,
 ) -> Result<Option<f32>, Fallback> {
     let side = Side::both(q, samples.origin)[0];
-    side_edges(plugin, scene, &side, s)?;
+    side_edges(plugin, &side, s)?;
     if !(s.active.is_empty() && s.regions.is_empty()) {
         return Ok(None);
     }
@@ -133,7 +133,7 @@ fn relative_counts(
         if side.below {
             plugin.counters.points_below.fetch_add(1, Ordering::Relaxed);
         }
-        let edges = if side.below || !above_gathered { side_edges(plugin, scene, &side, s) } else { Ok(()) };
+        let edges = if side.below || !above_gathered { side_edges(plugin, &side, s) } else { Ok(()) };
         match edges.and_then(|()| side_counts(plugin, &side, samples, s)) {
             Ok(()) => {
                 let l = lit_count(plugin, scene, samples, s, side.below, rays)?;
@@ -154,13 +154,12 @@ fn relative_counts(
 }
 
 /// One side's active edges and flagged triangles' regions, into `s` (see [`Side`]).
-fn side_edges(plugin: &Silhouette, scene: &Scene, side: &Side, s: &mut Scratch) -> Result<(), Fallback> {
+fn side_edges(plugin: &Silhouette, side: &Side, s: &mut Scratch) -> Result<(), Fallback> {
     let light = plugin.light();
     let frame = Frame::new(light, side.origin).ok_or(Fallback::NoShaft)?;
     // The whole hull: the path from the reference point to a sample may pass over parts of
     // the light under the tangent plane, and every edge projected there counts.
-    let shaft =
-        Shaft::new(light, &side.point, scene.coordinate_bound()).ok_or(Fallback::NoShaft)?.without_cut();
+    let shaft = Shaft::new(light, &side.point).ok_or(Fallback::NoShaft)?.without_cut();
     s.gather(plugin, &shaft, frame.o)?;
     s.activate(plugin, &frame)?;
     let c = &plugin.counters;
