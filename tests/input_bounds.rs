@@ -144,6 +144,26 @@ fn light_too_small_for_f32_is_an_error() {
     assert_error(&render(&dir, &scene, &[]), &dir, &["s.toml: light[0].u: ", "outside what f32 holds"]);
 }
 
+/// A camera 10^7 m away, where f32 spacing is 1 m, cannot hold the 0.5 m light in its
+/// render space: the error blames the camera's distance, named by its key (it blamed the
+/// light's size), and says what to do.
+#[test]
+fn camera_too_far_for_the_light_is_an_error_naming_the_camera() {
+    let dir = TempDir::new("bounds-far-camera");
+    let scene = format!("{CAMERA_AND_LIGHT}{FLOOR}");
+    let position = scene.lines().find(|l| l.starts_with("position")).expect("a camera position").to_string();
+    let scene = scene.replacen(&position, "position = [0.0, 2.0, 1e7]", 1);
+    assert_error(
+        &render(&dir, &scene, &[]),
+        &dir,
+        &[
+            "s.toml: camera.position: the camera is 1.000e7 m from the light",
+            "spaced 1.000e0 m",
+            "move the camera nearer",
+        ],
+    );
+}
+
 #[test]
 fn camera_inside_a_closed_box_is_a_warning() {
     let dir = TempDir::new("bounds-box");

@@ -317,10 +317,19 @@ fn world_bounds(triangles: &[SourceTriangle]) -> (DVec3, DVec3) {
     (lo, hi)
 }
 
+/// Why a light cannot be placed in render space: the message, and whether the camera's
+/// distance is to blame (the light itself is a real rectangle in f32 about its own centre).
+pub struct LightPlacement {
+    pub message: String,
+    pub camera_too_far: bool,
+}
+
 /// The light `l` in render space (world minus `world_offset`), or why f32 cannot hold it
 /// there: its corners must stay a real rectangle in f32 at its distance from the camera, or
-/// its irradiance could not be computed (a 1e-30 m light 2 m away is one point in f32).
-pub fn light_in_render_space(l: &LightDesc, world_offset: DVec3) -> Result<RectLight, String> {
+/// its irradiance could not be computed (a 1e-30 m light 2 m away is one point in f32; a
+/// 0.9 m light 10^7 m from the camera, where f32 spacing is 1 m, likewise: the camera's
+/// distance is then the culprit, and the message says so).
+pub fn light_in_render_space(l: &LightDesc, world_offset: DVec3) -> Result<RectLight, LightPlacement> {
     let centre = DVec3::from(l.center) - world_offset;
     let light = RectLight::new(
         centre.as_vec3(),
@@ -331,13 +340,29 @@ pub fn light_in_render_space(l: &LightDesc, world_offset: DVec3) -> Result<RectL
     let c = light.corners().map(|c| c.as_dvec3());
     if is_degenerate([c[0], c[1], c[2]]) || is_degenerate([c[0], c[2], c[3]]) || !light.normal.is_finite() {
         let d = centre.length();
-        return Err(format!(
-            "the light ({:.3e} x {:.3e} m) is too small for f32 at its distance from the camera \
-             ({d:.3e} m, where f32 positions are spaced {:.3e} m): its area and irradiance cannot be computed",
-            DVec3::from(l.u).length(),
-            DVec3::from(l.v).length(),
-            f32_spacing(d),
-        ));
+        let (u, v) = (DVec3::from(l.u), DVec3::from(l.v));
+        let at_origin = RectLight::new(Vec3::ZERO, u.as_vec3(), v.as_vec3(), Vec3::ONE);
+        let o = at_origin.corners().map(|c| c.as_dvec3());
+        let fine_nearby = !is_degenerate([o[0], o[1], o[2]]) && at_origin.normal.is_finite();
+        let message = if fine_nearby {
+            format!(
+                "the camera is {d:.3e} m from the light ({:.3e} x {:.3e} m), where f32 positions are spaced \
+                 {:.3e} m: render space is centred on the camera, so the light's area and irradiance \
+                 cannot be computed there; move the camera nearer the scene",
+                u.length(),
+                v.length(),
+                f32_spacing(d),
+            )
+        } else {
+            format!(
+                "the light ({:.3e} x {:.3e} m) is too small for f32 at its distance from the camera \
+                 ({d:.3e} m, where f32 positions are spaced {:.3e} m): its area and irradiance cannot be computed",
+                u.length(),
+                v.length(),
+                f32_spacing(d),
+            )
+        };
+        return Err(LightPlacement { message, camera_too_far: fine_nearby });
     }
     Ok(light)
 }
@@ -359,8 +384,14 @@ fn scene_lights(
             .iter()
             .enumerate()
             .map(|(k, l)| {
-                light_in_render_space(l, world_offset)
-                    .map_err(|msg| SceneError::new(scene_path, format!("light[{k}].u"), msg))
+                light_in_render_space(l, world_offset).map_err(|e| {
+                    let key = match (e.camera_too_far, file.camera.from_gltf) {
+                        (false, _) => format!("light[{k}].u"),
+                        (true, false) => "camera.position".to_string(),
+                        (true, true) => "camera.from_gltf".to_string(),
+                    };
+                    SceneError::new(scene_path, key, e.message)
+                })
             })
             .collect();
     }
@@ -371,7 +402,7 @@ fn scene_lights(
         {
             match light_in_render_space(&desc, world_offset) {
                 Ok(light) => found.push(light),
-                Err(msg) => warnings.push(format!("an emissive rectangle is not a light: {msg}")),
+                Err(e) => warnings.push(format!("an emissive rectangle is not a light: {}", e.message)),
             }
         }
     }
