@@ -371,7 +371,7 @@ fn bench_visibility(c: &mut Criterion) {
             light_index: 0,
             visible: &visible,
             seed: 0,
-            memory_budget_bytes: penumbra::memory::memory_budget_bytes(),
+            memory_budget_bytes: penumbra::memory::memory_budget_bytes().unwrap_or_else(|e| panic!("{e}")),
         };
         let t = Instant::now();
         method.prepare(&ctx).unwrap_or_else(|e| panic!("{e}"));

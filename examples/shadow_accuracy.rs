@@ -107,7 +107,7 @@ fn main() {
     if scenes.is_empty() {
         scenes.push(PathBuf::from("scenes/default.toml"));
     }
-    let memory_budget_bytes = penumbra::memory::memory_budget_bytes();
+    let memory_budget_bytes = penumbra::memory::memory_budget_bytes().unwrap_or_else(|e| panic!("{e}"));
     let settings =
         RenderSettings { width, height, spp: 1, seed: 0, memory_budget_bytes, profile: false, max_depth: 2 };
     let published =

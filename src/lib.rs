@@ -172,6 +172,9 @@ fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
         }
     };
     let shadows = shadows_config(args, &file, &scene_path)?;
+    // Checked here, before anything is loaded: read again (with the machine's free memory)
+    // when the frame begins.
+    memory::budget_override()?;
     let (width, height, spp) = image_size(args, &file, &scene_path)?;
     let png = png_path(args, &scene_path)?;
     let max_depth = args.max_depth.unwrap_or(file.integrator.max_depth);
@@ -259,7 +262,7 @@ fn render_frame(
     progress: &PhaseProgress,
 ) -> Result<Frame, CliError> {
     let mut methods: Vec<_> = scene.lights.iter().map(|_| plan.shadows.build()).collect();
-    let memory_budget_bytes = memory::memory_budget_bytes();
+    let memory_budget_bytes = memory::memory_budget_bytes()?;
     let settings = RenderSettings {
         width: plan.width,
         height: plan.height,

@@ -332,6 +332,32 @@ fn masks_over_the_memory_budget_are_refused() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A `PENUMBRA_MASK_BUDGET_MIB` that is not a whole number of MiB is an error naming the
+/// variable (it was ignored, leaving the machine's budget in force); one line, exit 2,
+/// before anything is loaded or written.
+#[test]
+fn a_garbage_budget_variable_is_an_error_naming_it() {
+    let dir = temp_dir("budget-garbage");
+    std::fs::write(dir.join("s.toml"), SCENE).unwrap();
+    for value in ["4G", "-1", "lots", ""] {
+        let o = Command::new(env!("CARGO_BIN_EXE_penumbra"))
+            .args(["render", "s.toml", "--out", "o.png"])
+            .env("PENUMBRA_MASK_BUDGET_MIB", value)
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{value:?}: {stderr}");
+        let expected = format!(
+            "error: PENUMBRA_MASK_BUDGET_MIB: the environment variable must be a whole number of MiB \
+             (such as 4096), got {value:?}"
+        );
+        assert_eq!(stderr.trim_end(), expected);
+        assert!(!dir.join("o.png").exists(), "{value:?}: something was written");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Every phase shows on a terminal: the render runs under a pseudo-terminal (`script`, from
 /// util-linux; the test says so and passes where it is missing), and stderr must name each.
 /// Without a terminal, stderr stays empty.

@@ -129,6 +129,8 @@ pub fn run_bench_in(args: &BenchArgs, methods: &[Registered]) -> Result<String, 
         methods,
     };
     let scenes = scene::check_scenes(args)?;
+    // A bad budget variable is refused before any scene is benched.
+    crate::memory::budget_override()?;
     std::fs::create_dir_all(&out)
         .map_err(|e| SceneError::new(&out, "--out", format!("cannot create the folder: {e}")))?;
 

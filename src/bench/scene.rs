@@ -111,7 +111,7 @@ pub(super) fn bench_scene(
     let (args, out) = (plan.args, plan.out);
     let scene = Scene::load(file, path)?;
     let (width, height) = bench_size(args, file.image.width, file.image.height);
-    let memory_budget_bytes = crate::memory::memory_budget_bytes();
+    let memory_budget_bytes = crate::memory::memory_budget_bytes()?;
     let settings = RenderSettings {
         width,
         height,
