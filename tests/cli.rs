@@ -332,6 +332,25 @@ fn masks_over_the_memory_budget_are_refused() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A folder named as the model (the folder a glTF came in, not the file) is called a
+/// directory, with the glTF files inside it named, not "no such file"; one line, exit 2.
+#[test]
+fn a_folder_as_model_path_is_called_a_directory() {
+    let dir = temp_dir("model-folder");
+    std::fs::create_dir_all(dir.join("chair")).unwrap();
+    std::fs::write(dir.join("chair/chair.gltf"), "{}").unwrap();
+    std::fs::write(dir.join("s.toml"), format!("[[model]]\npath = \"chair\"\n{SCENE}")).unwrap();
+    let o = penumbra(&["render", "s.toml", "--out", "o.png"], &dir);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert_eq!(
+        stderr.trim_end(),
+        "error: s.toml: model[0].path: chair is a directory, not a .gltf or .glb file (it holds chair.gltf)"
+    );
+    assert!(!dir.join("o.png").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A `PENUMBRA_MASK_BUDGET_MIB` that is not a whole number of MiB is an error naming the
 /// variable (it was ignored, leaving the machine's budget in force); one line, exit 2,
 /// before anything is loaded or written.

@@ -285,12 +285,8 @@ fn load_models(
     let mut gltf_camera = None;
     for (i, m) in file.model.iter().enumerate() {
         let path = SceneFile::resolve(scene_path, &m.path);
-        if !path.is_file() {
-            return Err(SceneError::new(
-                scene_path,
-                format!("model[{i}].path"),
-                format!("no such file: {}", path.display()),
-            ));
+        if let Some(problem) = not_a_model_file(&path) {
+            return Err(SceneError::new(scene_path, format!("model[{i}].path"), problem));
         }
         let model_from_file = DMat4::from_scale_rotation_translation(
             DVec3::splat(m.scale),
@@ -303,6 +299,33 @@ fn load_models(
         }
     }
     Ok(gltf_camera)
+}
+
+/// Why `path` cannot be a model file, or `None` when it is a file. A folder gets its own
+/// message (it was reported as "no such file", which sent users looking for a typo), naming
+/// the glTF files inside it when there are any.
+fn not_a_model_file(path: &Path) -> Option<String> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => None,
+        Ok(m) if m.is_dir() => {
+            let mut inside: Vec<String> = std::fs::read_dir(path)
+                .into_iter()
+                .flatten()
+                .flatten()
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.ends_with(".gltf") || n.ends_with(".glb"))
+                .collect();
+            inside.sort();
+            let hint =
+                if inside.is_empty() { String::new() } else { format!(" (it holds {})", inside.join(", ")) };
+            Some(format!("{} is a directory, not a .gltf or .glb file{hint}", path.display()))
+        }
+        Ok(_) => Some(format!("{} is not a regular file", path.display())),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            Some(format!("no such file: {}", path.display()))
+        }
+        Err(e) => Some(format!("cannot read {}: {e}", path.display())),
+    }
 }
 
 /// The (min, max) corners of the triangles' world positions; (+inf, -inf) without any.
