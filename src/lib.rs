@@ -249,6 +249,10 @@ fn png_path(args: &RenderArgs, scene_path: &Path) -> Result<PathBuf, CliError> {
     if png.extension().and_then(|e| e.to_str()) != Some("png") {
         return Err(SceneError::new(&png, "--out", "must name a .png file"));
     }
+    // Before the render, not after it (the files themselves are still written all or
+    // nothing, at the end).
+    let folder = png.parent().unwrap_or(Path::new(""));
+    renderer::util::output::check_writable_folder(folder).map_err(|e| SceneError::new(&png, "--out", e))?;
     Ok(png)
 }
 

@@ -332,6 +332,62 @@ fn masks_over_the_memory_budget_are_refused() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A folder this process cannot write in: a 0o555 folder, or where the test runs as root
+/// (which writes there anyway) `/sys`, which refuses root too. None (the test says so) where
+/// neither is read-only.
+fn read_only_folder(dir: &Path) -> Option<PathBuf> {
+    use std::os::unix::fs::PermissionsExt;
+    let ro = dir.join("ro");
+    std::fs::create_dir_all(&ro).unwrap();
+    std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
+    let writable = |d: &Path| {
+        let probe = d.join(format!("probe-{}", std::process::id()));
+        let ok = std::fs::write(&probe, b"").is_ok();
+        let _ = std::fs::remove_file(&probe);
+        ok
+    };
+    [ro, PathBuf::from("/sys")].into_iter().find(|d| d.is_dir() && !writable(d))
+}
+
+/// An output folder that cannot be written in is refused before the scene is loaded (so
+/// before any render): here the scene's model is a broken glTF, which would be the error
+/// had the scene been loaded first. One line naming the output and `--out`, exit 2,
+/// nothing written.
+#[test]
+fn a_read_only_output_folder_is_refused_before_rendering() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = temp_dir("read-only");
+    let Some(ro) = read_only_folder(&dir) else {
+        eprintln!("no read-only folder here: the check is skipped");
+        return;
+    };
+    std::fs::write(dir.join("broken.gltf"), "{").unwrap();
+    std::fs::write(dir.join("s.toml"), format!("[[model]]\npath = \"broken.gltf\"\n{SCENE}")).unwrap();
+    for out in [ro.join("x.png"), ro.join("sub/x.png")] {
+        let o = penumbra(&["render", "s.toml", "--out", out.to_str().unwrap()], &dir);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{stderr}");
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
+        let folder = out.parent().unwrap();
+        let expected = if folder == ro {
+            format!("error: {}: --out: cannot write in the folder {}: ", out.display(), ro.display())
+        } else {
+            format!(
+                "error: {}: --out: cannot create the folder {} in {}: ",
+                out.display(),
+                folder.display(),
+                ro.display()
+            )
+        };
+        assert!(stderr.starts_with(&expected), "{stderr:?} does not start with {expected:?}");
+        assert!(!stderr.contains("broken.gltf"), "the scene was loaded first: {stderr}");
+    }
+    let ro_local = dir.join("ro");
+    assert_eq!(std::fs::read_dir(&ro_local).unwrap().count(), 0, "something was written");
+    std::fs::set_permissions(&ro_local, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A folder named as the model (the folder a glTF came in, not the file) is called a
 /// directory, with the glTF files inside it named, not "no such file"; one line, exit 2.
 #[test]

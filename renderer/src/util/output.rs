@@ -58,6 +58,43 @@ pub const EXR_ENCODING: exr::prelude::Encoding = exr::prelude::Encoding {
     ..exr::prelude::Encoding::FAST_LOSSLESS
 };
 
+/// Checks, before any work is done, that files can be written in `dir` (created later when
+/// it does not exist yet): a render that took an hour should not fail at its last step on a
+/// read-only folder. Tried, not inferred from permission bits (root writes into a 0o555
+/// folder; a read-only mount refuses everyone): a probe file is created in `dir`, or in its
+/// nearest existing ancestor, and removed at once. Nothing else is created.
+///
+/// # Errors
+/// One line: the folder (or the ancestor it would be created in) and why it is unwritable.
+pub fn check_writable_folder(dir: &Path) -> Result<(), String> {
+    let dir = if dir.as_os_str().is_empty() { Path::new(".") } else { dir };
+    let existing = dir.ancestors().find(|a| a.as_os_str().is_empty() || a.exists()).unwrap_or(dir);
+    let existing = if existing.as_os_str().is_empty() { Path::new(".") } else { existing };
+    if !existing.is_dir() {
+        return Err(format!("{} is not a folder", existing.display()));
+    }
+    let probe = existing.join(format!(".penumbra-write-check.{}.tmp", std::process::id()));
+    let created = {
+        // Registered like a staged file, so that a signal in between removes it too.
+        let mut registry = staged_registry();
+        let created = std::fs::OpenOptions::new().write(true).create_new(true).open(&probe);
+        if created.is_ok() {
+            registry.push(probe.clone());
+        }
+        created
+    };
+    match created {
+        Ok(_) => {
+            let mut registry = staged_registry();
+            let _ = std::fs::remove_file(&probe);
+            registry.retain(|t| *t != probe);
+            Ok(())
+        }
+        Err(e) if existing == dir => Err(format!("cannot write in the folder {}: {e}", dir.display())),
+        Err(e) => Err(format!("cannot create the folder {} in {}: {e}", dir.display(), existing.display())),
+    }
+}
+
 /// Files staged for an all-or-nothing write.
 #[derive(Debug, Default)]
 pub struct StagedFiles {
@@ -182,6 +219,22 @@ mod tests {
         assert_eq!(encode_srgb8(f32::NAN), 0);
         // Linear 0.2158605 is sRGB 128/255.
         assert_eq!(encode_srgb8(0.215_860_5), 128);
+    }
+
+    #[test]
+    fn a_writable_folder_passes_the_check_and_keeps_no_probe() {
+        let dir = std::env::temp_dir().join(format!("penumbra-writable-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        check_writable_folder(&dir).unwrap();
+        // A folder yet to be created is checked in its nearest existing ancestor, and not
+        // created by the check.
+        check_writable_folder(&dir.join("a/b")).unwrap();
+        assert!(!dir.join("a").exists());
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "the probe was left behind");
+        std::fs::write(dir.join("file"), b"").unwrap();
+        let e = check_writable_folder(&dir.join("file/sub")).unwrap_err();
+        assert_eq!(e, format!("{} is not a folder", dir.join("file").display()));
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
