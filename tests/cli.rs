@@ -332,6 +332,30 @@ fn masks_over_the_memory_budget_are_refused() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The primary hits are gathered into a list for `prepare` only when a method reads it:
+/// `none`, `traced` and `silhouette` gather none (counter `visible_points`), the depth-map
+/// methods every primary hit.
+#[test]
+fn visible_points_are_gathered_only_for_methods_that_read_them() {
+    let dir = temp_dir("gather");
+    std::fs::write(dir.join("s.toml"), SCENE).unwrap();
+    for (method, gathers) in
+        [("none", false), ("traced", false), ("silhouette", false), ("edge_table", true), ("pcss", true)]
+    {
+        let out = format!("{method}.png");
+        let o = penumbra(&["render", "s.toml", "--shadows", method, "--max-depth", "2", "--out", &out], &dir);
+        assert!(o.status.success(), "{method}: {}", String::from_utf8_lossy(&o.stderr));
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.join(format!("{method}.json"))).unwrap()).unwrap();
+        // One sample per pixel, direct light only: the points gathered are the primary hits.
+        let hits = report["counters"]["shading_points"].as_u64().unwrap();
+        assert_eq!(hits, 376, "{method}: the scene's primary hits");
+        let expected = if gathers { hits } else { 0 };
+        assert_eq!(report["counters"]["visible_points"], expected, "{method}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A folder this process cannot write in: a 0o555 folder, or where the test runs as root
 /// (which writes there anyway) `/sys`, which refuses root too. None (the test says so) where
 /// neither is read-only.

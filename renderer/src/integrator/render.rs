@@ -56,7 +56,8 @@ pub struct Frame {
     /// pixel's samples that hit; 0 where the light is below the horizon or faces away), or
     /// -1 where no primary ray hits anything.
     pub visibility: Vec<Vec<f32>>,
-    /// Gathering the primary hits into the visible points every method's `prepare` reads.
+    /// Gathering the primary hits into the visible points the methods' `prepare` reads (0
+    /// when none reads them: [`LightShadowing::reads_visible_points`]).
     pub visible_points: Duration,
     /// Every light's `prepare`.
     pub shadow_prepare: Duration,
@@ -98,17 +99,25 @@ pub fn render(
     let primary_time = t_primary.elapsed();
 
     let t_gather = Instant::now();
-    progress(Progress::Phase { name: "gathering visible points", rows: 0 });
-    let visible = tracing::info_span!("visible_points").in_scope(|| {
-        let mut v = visible_points(&hits);
-        // Paths query points the camera does not see: the first bounce of each pixel's first
-        // sample (exactly the vertex its path will query), so depth maps cover them too.
-        if settings.max_depth > 2 {
-            v.extend(first_bounces(scene, &hits, settings));
-        }
-        v
-    });
+    // Only for methods whose `prepare` reads them: `none`, `traced` and `silhouette` do not.
+    let gather = methods.iter().any(|m| m.reads_visible_points());
+    let visible = if gather {
+        progress(Progress::Phase { name: "gathering visible points", rows: 0 });
+        tracing::info_span!("visible_points").in_scope(|| {
+            let mut v = visible_points(&hits);
+            // Paths query points the camera does not see: the first bounce of each pixel's
+            // first sample (exactly the vertex its path will query), so depth maps cover
+            // them too.
+            if settings.max_depth > 2 {
+                v.extend(first_bounces(scene, &hits, settings));
+            }
+            v
+        })
+    } else {
+        Vec::new()
+    };
     let visible_points = t_gather.elapsed();
+    let gathered = visible.len() as u64;
 
     let t_prepare = Instant::now();
     progress(Progress::Phase { name: "preparing the shadow method", rows: 0 });
@@ -123,6 +132,7 @@ pub fn render(
     let mut counters = BTreeMap::new();
     counters.insert("shading_points".to_string(), shaded.shading_points);
     counters.insert("shadow_queries".to_string(), shaded.shadow_queries);
+    counters.insert("visible_points".to_string(), gathered);
     for m in methods.iter() {
         for (name, value) in m.counters() {
             *counters.entry(name.to_string()).or_insert(0) += value;

@@ -17,7 +17,8 @@ pub struct PrepareContext<'a> {
     pub light: &'a RectLight,
     pub light_index: usize,
     /// Every primary hit of the frame (what the camera sees), for methods that fit a depth
-    /// map or other structure to it.
+    /// map or other structure to it; empty when no method of the frame reads it
+    /// ([`LightShadowing::reads_visible_points`]).
     pub visible: &'a [ShadingPoint],
     /// The frame's seed.
     pub seed: u64,
@@ -56,6 +57,14 @@ pub trait LightShadowing: Send + Sync {
 
     /// Builds whatever the method needs for `ctx.light` in this frame.
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError>;
+
+    /// Whether `prepare` reads [`PrepareContext::visible`] (to fit a depth map to what the
+    /// camera sees). When no light's method does, the frame does not gather those points:
+    /// `none` at 16384 x 4096 spent 5.8 s and gigabytes on a list nobody read. True unless a
+    /// method says otherwise, so that a new method is never handed an empty list unasked.
+    fn reads_visible_points(&self) -> bool {
+        true
+    }
 
     /// Visibility in [0, 1] of the prepared light from `q`. Called only where the light's
     /// unshadowed irradiance at `q` is non-zero. Must not allocate.

@@ -62,6 +62,9 @@ impl LightShadowing for Unshadowed {
     fn prepare(&mut self, _: &PrepareContext) -> Result<(), ShadowError> {
         Ok(())
     }
+    fn reads_visible_points(&self) -> bool {
+        false
+    }
     fn visibility(&self, _: &Scene, _: &ShadowQuery) -> f32 {
         1.0
     }
@@ -246,6 +249,11 @@ impl LightShadowing for Traced {
         }
         self.light = Some(*ctx.light);
         Ok(())
+    }
+
+    /// Traced rays need only the light.
+    fn reads_visible_points(&self) -> bool {
+        false
     }
 
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {

@@ -222,6 +222,11 @@ impl LightShadowing for Silhouette {
         Ok(())
     }
 
+    /// Its edges are found per light over the whole scene, not what the camera sees.
+    fn reads_visible_points(&self) -> bool {
+        false
+    }
+
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         self.counters.points.fetch_add(1, Ordering::Relaxed);
         let samples = match self.traced.point_samples_culled(scene, q, CULLING) {
