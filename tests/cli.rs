@@ -303,35 +303,6 @@ fn an_output_blocked_by_a_folder_leaves_nothing_behind() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Masks that would not fit the memory budget are refused before the machine runs out: one
-/// line naming the grid and sample count, exit 2, nothing written. (The budget is lowered
-/// through `PENUMBRA_MASK_BUDGET_MIB` so that the test does not need gigabytes; the same
-/// render within budget succeeds.)
-#[test]
-fn masks_over_the_memory_budget_are_refused() {
-    let dir = temp_dir("budget");
-    std::fs::write(dir.join("s.toml"), SCENE).unwrap();
-    let run = |budget_mib: &str| {
-        Command::new(env!("CARGO_BIN_EXE_penumbra"))
-            .args(["render", "s.toml", "--shadows", "edge_table", "--samples", "1024", "--quiet"])
-            .env("PENUMBRA_MASK_BUDGET_MIB", budget_mib)
-            .current_dir(&dir)
-            .output()
-            .unwrap()
-    };
-    let o = run("0");
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{stderr}");
-    assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
-    for needle in ["s.toml", "shadows", "grid [2, 2, 8]", "1024 samples"] {
-        assert!(stderr.contains(needle), "{stderr:?} does not name {needle:?}");
-    }
-    assert!(!dir.join("out").exists(), "something was written");
-    let o = run("4096");
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let _ = std::fs::remove_dir_all(&dir);
-}
-
 /// The primary hits are gathered into a list for `prepare` only when a method reads it:
 /// `none`, `traced` and `silhouette` gather none (counter `visible_points`), the depth-map
 /// methods every primary hit.

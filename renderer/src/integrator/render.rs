@@ -141,7 +141,10 @@ pub fn render(
     let (w, h, lights) = (width as usize, height as usize, scene.lights.len());
     let visibility =
         (0..lights).map(|k| (0..w * h).map(|i| shaded.visibility[i * lights + k]).collect()).collect();
-    let warnings = frame_warnings(scene, &hits, &shaded.facing, &shaded.lit);
+    let mut warnings = frame_warnings(scene, &hits, &shaded.facing, &shaded.lit);
+    for (k, m) in methods.iter().enumerate() {
+        warnings.extend(m.warnings().into_iter().map(|w| format!("light {k}: {w}")));
+    }
     let render = primary_time + t_shade.elapsed();
     if settings.max_depth > 2 {
         for (i, v) in shaded.vertex_queries.iter().enumerate() {

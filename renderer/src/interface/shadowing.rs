@@ -82,6 +82,12 @@ pub trait LightShadowing: Send + Sync {
         Vec::new()
     }
 
+    /// What the last `prepare` did that a user should hear of (such as the memory it took),
+    /// one line each; the frame adds them to its warnings, naming the light.
+    fn warnings(&self) -> Vec<String> {
+        Vec::new()
+    }
+
     /// Bytes the prepared structures hold (depth maps, masks): taken off the memory budget
     /// of the lights prepared after this one.
     fn memory_bytes(&self) -> u64 {

@@ -67,6 +67,7 @@ mod entry;
 mod exact;
 mod grid;
 mod mask;
+pub mod memory;
 mod params;
 
 pub use crate::heightfield::Heightfield;
@@ -85,7 +86,6 @@ use crate::samples;
 use glam::Vec2;
 use grid::{Layout, MaskGrid};
 use rayon::prelude::*;
-use renderer::util::sampling::{Rng, stream_seed};
 use renderer::{LightShadowing, PrepareContext, Scene, ShadingPoint, ShadowError, ShadowQuery};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -100,6 +100,10 @@ pub struct EdgeTable {
     blocks_culled: AtomicU64,
     clipped: AtomicU64,
     exact_counters: ExactCounters,
+    /// What the last `prepare` took, when it was more than most renders expect.
+    warning: Option<String>,
+    /// The masks' bytes as estimated before they were built (a counter beside `mask_bytes`).
+    mask_bytes_estimated: AtomicU64,
 }
 
 /// The exact reading's counters (relaxed, one add per query).
@@ -153,6 +157,8 @@ impl EdgeTable {
             blocks_culled: AtomicU64::new(0),
             clipped: AtomicU64::new(0),
             exact_counters: ExactCounters::default(),
+            warning: None,
+            mask_bytes_estimated: AtomicU64::new(0),
         }
     }
 
@@ -172,17 +178,23 @@ impl EdgeTable {
         budget: u64,
     ) -> Result<Vec<Mask>, ShadowError> {
         let _span = tracing::info_span!("masks", count = built.len(), samples = self.samples).entered();
-        let [gx, gy, _] = self.params.grid;
-        let n = self.samples as usize;
-        let half = map.frame.half_size;
-        let pitch = map.pitch;
-        let seed = ctx.seed;
-        let light_index = ctx.light_index as u64;
-        let exact = self.params.reading == Reading::Exact;
+        let (half, pitch) = (map.frame.half_size, map.pitch);
         // Mask memory grows with grid x samples x filter-region size; a grid the machine
         // cannot hold is refused (an error naming the parameters) rather than swapped or
-        // killed. Checked as masks are built: once the total passes the budget the rest are
-        // skipped, so the overshoot is at most one mask per thread.
+        // killed. Estimated before any mask is built (`memory.rs`); checked again as masks are
+        // built, should the estimate fall short: once the total passes the budget the rest
+        // are skipped, so the overshoot is at most one mask per thread.
+        let estimate = memory::estimate_masks(
+            ctx,
+            &self.params,
+            self.samples,
+            (half, pitch),
+            built,
+            heightfield,
+            levels,
+        );
+        self.mask_bytes_estimated.store(estimate.bytes, Ordering::Relaxed);
+        memory::check_masks(&self.params, self.samples, &estimate, budget)?;
         let bytes = AtomicU64::new(0);
         let masks: Vec<Option<Mask>> = built
             .par_iter()
@@ -190,18 +202,8 @@ impl EdgeTable {
                 if bytes.load(Ordering::Relaxed) > budget {
                     return None;
                 }
-                let [ax, ay, k] = grid::coordinates(m, self.params.grid);
-                // The exact reading's masks sit at their cell's lower corner (a point's ray is
-                // the mask's shifted by less than one cell along +x and +y); the published
-                // reading's at the cell's centre.
-                let centre = if exact { 0.0 } else { 0.5 };
-                let offset = Vec2::new((ax as f32 + centre) / gx as f32, (ay as f32 + centre) / gy as f32);
-                let mut s = vec![Vec2::ZERO; n];
-                samples::stratified(
-                    &mut s,
-                    half,
-                    &mut Rng::new(stream_seed(&[seed, light_index, m as u64, 3])),
-                );
+                let k = grid::coordinates(m, self.params.grid)[2];
+                let (offset, s) = memory::mask_inputs(ctx, &self.params, self.samples, half, m);
                 let (depth, h_stop) = levels[k as usize];
                 let mask = Mask::build_for(heightfield, offset, depth, s, pitch, h_stop);
                 bytes.fetch_add(mask.bytes(), Ordering::Relaxed);
@@ -249,9 +251,10 @@ fn mask_height_cap(map: &DepthMap, visible: &[ShadingPoint]) -> f32 {
 
 impl EdgeTable {
     /// The published reading's prepare: the depth map, the depth levels, how high the masks
-    /// march, the masks within the memory budget.
+    /// march, the masks within the memory budget (less the map's bytes).
     fn prepare_published(&self, ctx: &PrepareContext, p: &PublishedParams) -> Result<Prepared, ShadowError> {
         let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map());
+        let budget = ctx.memory_budget_bytes.saturating_sub(map.bytes());
         let levels_span = tracing::info_span!("depth_levels").entered();
         let (levels, z_hi) = grid::depth_levels(&map, ctx.visible, self.params.grid[2]);
         // Each mask marches far enough for the deepest point it serves, and no further than
@@ -265,7 +268,6 @@ impl EdgeTable {
             .map(|(&z, &hi)| (z, stop_height(map.z_min, hi).min(h_cap)))
             .collect();
         let layout = Layout::new(self.params.grid, self.params.switches.mirrored);
-        let budget = ctx.memory_budget_bytes;
         let masks = self.build_masks(ctx, &map, &layout.built, p.heightfield, &per_level, budget)?;
         let grid = MaskGrid { dims: self.params.grid, blend: p.blend, levels, cells: layout.cells };
         Ok(Prepared::Published { map: Box::new(map), masks, grid, heightfield: p.heightfield })
@@ -298,7 +300,8 @@ impl EdgeTable {
         let layout = Layout::new(self.params.grid, false);
         // Classification reads no walls: the masks are built without the `shells` reading's
         // per-side tables.
-        let (built, budget) = (&layout.built, ctx.memory_budget_bytes);
+        let map_bytes = map.bounds.bytes() + map.near.bytes();
+        let (built, budget) = (&layout.built, ctx.memory_budget_bytes.saturating_sub(map_bytes));
         let masks = self.build_masks(ctx, &map.near, built, Heightfield::Plates, &per_level, budget)?;
         let half = map.near.frame.half_size;
         let masks = masks.into_iter().map(|m| ExactMask::new(m, half)).collect();
@@ -459,6 +462,9 @@ impl LightShadowing for EdgeTable {
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
         self.state = None;
+        self.warning = None;
+        // The map's peak is known from its size alone: refused before anything is built.
+        memory::check_map(&self.params, ctx.memory_budget_bytes)?;
         self.state = Some(match &self.params.reading {
             Reading::Exact => {
                 self.fallback.prepare(ctx)?;
@@ -469,7 +475,14 @@ impl LightShadowing for EdgeTable {
                 self.prepare_published(ctx, p)?
             }
         });
+        let mask_bytes = self.counters().iter().find(|c| c.0 == "mask_bytes").map_or(0, |c| c.1);
+        let peak = memory::map_peak_bytes(&self.params);
+        self.warning = memory::warning(&self.params, peak, self.memory_bytes(), mask_bytes);
         Ok(())
+    }
+
+    fn warnings(&self) -> Vec<String> {
+        self.warning.iter().cloned().collect()
     }
 
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
@@ -507,6 +520,7 @@ impl LightShadowing for EdgeTable {
         let mut c = vec![
             ("masks_built", masks.len() as u64),
             ("mask_bytes", masks.iter().map(|m| m.bytes()).sum::<u64>()),
+            ("mask_bytes_estimated", self.mask_bytes_estimated.load(Ordering::Relaxed)),
             ("mask_crossings", masks.iter().map(|m| m.crossings() as u64).sum::<u64>()),
             ("depth_map_bytes", map_bytes),
             ("edge_lookups", self.lookups.load(Ordering::Relaxed)),

@@ -32,11 +32,7 @@ impl Mask {
         pitch: f32,
         h_stop: f32,
     ) -> Self {
-        // Rays in order of direction, so that the rays crossing into or out of any one pixel
-        // are neighbours in the bit order (see `Table::span`).
-        samples.sort_by(|a, b| {
-            a.y.atan2(a.x).total_cmp(&b.y.atan2(b.x)).then(a.length_squared().total_cmp(&b.length_squared()))
-        });
+        sort_by_direction(&mut samples);
         let n = samples.len();
         let words = bits::words(n);
         let crossings = march(&samples, offset, depth * pitch, h_stop);
@@ -70,6 +66,88 @@ impl Mask {
             h_max: h_stop,
         }
     }
+}
+
+impl Mask {
+    /// What [`Mask::bytes`] of [`Mask::build_for`] with these arguments would be, found
+    /// without building it: the rays are marched and the region found, but of its tables
+    /// only their lengths and word spans are counted, not their bitmasks (which are most of
+    /// a mask's bytes and of its build time). Lets `prepare` refuse a grid that will not fit
+    /// before it builds any mask.
+    pub fn estimate_bytes(
+        heightfield: Heightfield,
+        offset: Vec2,
+        depth: f32,
+        mut samples: Vec<Vec2>,
+        pitch: f32,
+        h_stop: f32,
+    ) -> u64 {
+        sort_by_direction(&mut samples);
+        let n = samples.len();
+        let crossings = march(&samples, offset, depth * pitch, h_stop);
+        let region = Region::new(&crossings, n);
+        let count = region.pixels.len();
+        // Per cell, its in- and out-table (as `cell_tables` buckets them; the own pixel's
+        // crossings out go to `own_out`): (crossings, lowest word, highest word).
+        let mut runs = vec![(0u64, u32::MAX, 0u32); 2 * count];
+        let add = |run: &mut (u64, u32, u32), ray: u32| {
+            *run = (run.0 + 1, run.1.min(ray / 64), run.2.max(ray / 64))
+        };
+        for (&(_, _, _, r), &(f, t)) in crossings.iter().zip(&region.side_cells) {
+            add(&mut runs[2 * t as usize], r);
+            if f != 0 {
+                add(&mut runs[2 * f as usize + 1], r);
+            }
+        }
+        // A table stores a height and `span` words per crossing (`Store::push`).
+        let stored = |(len, lo, hi): (u64, u32, u32)| len * (4 + 8 * (hi - lo + 1) as u64);
+        let tables = runs.iter().filter(|r| r.0 > 0).count() as u64;
+        let mut data: u64 = runs.iter().filter(|r| r.0 > 0).map(|&r| stored(r)).sum();
+        // The per-side tables `side_tables` keeps: the own pixel's, and every side's for walls.
+        let walls = heightfield == Heightfield::Shells;
+        let (mut own_out, mut sides) = (0u64, 0u64);
+        for side in side_runs(&crossings) {
+            let from = region.side_cells[side.start].0;
+            if walls || from == 0 {
+                let mut run = (0, u32::MAX, 0);
+                crossings[side].iter().for_each(|c| add(&mut run, c.3));
+                data += stored(run);
+                own_out += u64::from(from == 0);
+                sides += u64::from(walls);
+            }
+        }
+        let blocks: std::collections::HashSet<[i32; 2]> =
+            region.pixels[1..].iter().map(|&c| block_of(c)).collect();
+        use std::mem::size_of;
+        count as u64 * size_of::<Cell>() as u64
+            + blocks.len() as u64 * size_of::<Block>() as u64
+            + (tables + own_out) * size_of::<Table>() as u64
+            + sides * size_of::<Side>() as u64
+            + data
+            + n as u64 * 8
+    }
+}
+
+/// Rays in order of direction, so that the rays crossing into or out of any one pixel are
+/// neighbours in the bit order (see `Table::span`).
+fn sort_by_direction(samples: &mut [Vec2]) {
+    samples.sort_by(|a, b| {
+        a.y.atan2(a.x).total_cmp(&b.y.atan2(b.x)).then(a.length_squared().total_cmp(&b.length_squared()))
+    });
+}
+
+/// The runs of `crossings` (sorted by side) that cross one side each.
+fn side_runs(crossings: &[Crossing]) -> Vec<std::ops::Range<usize>> {
+    let mut runs = Vec::new();
+    let mut i = 0;
+    while i < crossings.len() {
+        let (to, axis) = (crossings[i].0, crossings[i].1);
+        let end =
+            crossings[i..].iter().position(|c| c.0 != to || c.1 != axis).map_or(crossings.len(), |k| i + k);
+        runs.push(i..end);
+        i = end;
+    }
+    runs
 }
 
 /// Every ray's crossings up to `h_stop`, by side (pixel entered, axis), then height and ray.
@@ -253,15 +331,11 @@ fn side_tables(
 ) -> ([Option<Table>; 4], Vec<Side>) {
     let (mut own_out, mut sides) = ([None; 4], Vec::new());
     let mut list = Vec::new();
-    let mut i = 0;
-    while i < crossings.len() {
-        let (to, axis) = (crossings[i].0, crossings[i].1);
-        let end =
-            crossings[i..].iter().position(|c| c.0 != to || c.1 != axis).map_or(crossings.len(), |k| i + k);
-        let (f, t) = side_cells[i];
+    for side in side_runs(crossings) {
+        let (f, t) = side_cells[side.start];
         if walls || f == 0 {
             list.clear();
-            list.extend(crossings[i..end].iter().map(|c| (c.2, c.3)));
+            list.extend(crossings[side].iter().map(|c| (c.2, c.3)));
             let table = store.push(&mut list);
             if f == 0 {
                 let free = own_out.iter().position(Option::is_none).expect("a pixel has at most 4 sides");
@@ -271,7 +345,6 @@ fn side_tables(
                 sides.push(Side { from: new_cell[f as usize], to: new_cell[t as usize], table });
             }
         }
-        i = end;
     }
     sides.sort_by(|a, b| a.table.first.total_cmp(&b.table.first));
     (own_out, sides)
