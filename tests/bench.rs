@@ -113,6 +113,18 @@ fn check_outputs(out: &Path, scenes: &[&str]) -> serde_json::Value {
     for scene in scenes {
         assert!(links.iter().any(|l| l == &format!("{scene}/plot.png")), "{scene}: no plot");
         assert!(links.iter().any(|l| l == &format!("{scene}/truth.png")), "{scene}: no truth image");
+        // The truth is shown as wide as the other figures, and labelled with the resolution
+        // it was rendered at: the bench's (64 wide with --quick).
+        let truth = image::open(out.join(format!("{scene}/truth.png"))).unwrap();
+        let tag = format!("<img class=\"px\" src=\"{scene}/truth.png\" alt=\"truth\" width=\"320\">");
+        let at = html.find(&tag).unwrap_or_else(|| panic!("{scene}: {tag} not in the report"));
+        let caption = &html[at..html[at..].find("</figcaption>").unwrap() + at];
+        let size = format!("{}x{} pixels, the bench's resolution", truth.width(), truth.height());
+        assert!(caption.contains(&size), "{scene}: {caption:?} does not say {size:?}");
+        for row in json["rows"].as_array().unwrap().iter().filter(|r| r["scene"] == *scene) {
+            let size = [row["width"].as_u64().unwrap(), row["height"].as_u64().unwrap()];
+            assert_eq!(size, [truth.width() as u64, truth.height() as u64], "{scene}: the truth's size");
+        }
         for kind in [".error.png", ".cost.png"] {
             let maps: Vec<&String> =
                 links.iter().filter(|l| l.starts_with(&format!("{scene}/")) && l.ends_with(kind)).collect();

@@ -16,7 +16,7 @@ pub(super) fn html(threads: usize, repeats: u32, results: &[SceneResult]) -> Str
 body{{font-family:sans-serif;margin:2em;max-width:1400px}}table{{border-collapse:collapse;font-size:13px}}\
 td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}td:first-child,th:first-child{{text-align:left}}\
 tr.default{{background:#fde}}figure{{display:inline-block;margin:4px;vertical-align:top}}\
-figcaption{{font-size:12px;max-width:330px}}img.plot{{max-width:900px;width:100%}}\
+figcaption{{font-size:12px;max-width:330px}}img.px{{image-rendering:pixelated}}img.plot{{max-width:900px;width:100%}}\
 span.bar{{display:inline-flex;height:16px;border:1px solid #999}}span.bar span{{display:inline-block;height:16px}}\
 span.key{{display:inline-block;width:10px;height:10px;margin-right:3px}}div.best{{margin-top:8px}}</style></head><body>\n\
 <h1>penumbra bench</h1>\n<p>{} scene(s), {} thread(s), median of {} run(s) per setting. Shadow cost = \
@@ -108,11 +108,19 @@ fn table(h: &mut String, r: &SceneResult) {
 /// A scene's images: the truth, and per family its best setting's image, error heat map
 /// and cost heat map side by side, and a bar splitting its shadow cost.
 fn images(h: &mut String, r: &SceneResult) {
+    // Every image of a scene is rendered at the bench's resolution (64 wide with --quick) and
+    // shown 320 wide, pixels kept sharp: the truth used to be shown at its own size, so at
+    // 64x48 it looked like a thumbnail rendered smaller than the rest.
+    let enlarged = if r.width < 320 { ", shown enlarged" } else { "" };
     let _ = writeln!(
         h,
-        "<div><figure><img src=\"{0}/truth.png\" alt=\"truth\"><figcaption>truth (traced N={1})</figcaption></figure></div>",
+        "<div><figure><img class=\"px\" src=\"{0}/truth.png\" alt=\"truth\" width=\"320\"><figcaption>truth \
+(traced N={1}): {2}x{3} pixels, the bench's resolution{4}</figcaption></figure></div>",
         esc(&r.stem),
-        r.truth_samples
+        r.truth_samples,
+        r.width,
+        r.height,
+        enlarged
     );
     // The bars share one scale per scene: the costliest method's shadow cost.
     let widest =
@@ -120,7 +128,7 @@ fn images(h: &mut String, r: &SceneResult) {
     for b in &r.best {
         let _ = writeln!(
             h,
-            "<div class=\"best\"><figure><img src=\"{}\" alt=\"{}\" width=\"320\"><figcaption>{} (best {})</figcaption></figure>\
+            "<div class=\"best\"><figure><img class=\"px\" src=\"{}\" alt=\"{}\" width=\"320\"><figcaption>{} (best {})</figcaption></figure>\
 <figure><img src=\"{}\" alt=\"{} error\" width=\"320\"><figcaption>{}: |visibility error|</figcaption></figure>\
 <figure><img src=\"{}\" alt=\"{} cost\" width=\"320\"><figcaption>{}: shading time per pixel, log scale</figcaption></figure>",
             esc(&b.image),
