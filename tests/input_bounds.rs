@@ -262,6 +262,45 @@ fn missing_bin_is_named() {
     assert_error(&o, &dir, &["floor.gltf: buffers[0].byteLength: ", "floor.bin has "]);
 }
 
+/// Buffer URIs that lead out of the model's folder (an absolute path, a `file:` URI, `..`
+/// past the folder) load, with a warning naming the model, the key, the URI and the file
+/// read; a URI inside the folder gets none.
+#[test]
+fn a_uri_out_of_the_models_folder_is_a_warning() {
+    let dir = TempDir::new("bounds-uri");
+    std::fs::create_dir_all(dir.join("models")).unwrap();
+    std::fs::create_dir_all(dir.join("shared")).unwrap();
+    let b = floor_with_a_degenerate_triangle([0.8; 4]);
+    b.write(&dir.join("shared"), "floor"); // the .bin the URIs below name
+    let bin = dir.join("shared/floor.bin");
+    let absolute = bin.display().to_string();
+    let cases = [
+        (absolute.clone(), "an absolute path", absolute.clone()),
+        (format!("file://{absolute}"), "an absolute file: URI", absolute.clone()),
+        (
+            "../shared/floor.bin".to_string(),
+            "a relative path out of the model's folder",
+            "models/../shared/floor.bin".into(),
+        ),
+    ];
+    for (uri, what, file) in cases {
+        common::gltf_writer::write_json(&dir.join("models/floor.gltf"), &b.json(&uri));
+        let o = render(&dir, &model_scene("models/floor.gltf"), &[]);
+        let expected = format!(
+            "models/floor.gltf: buffers[0].uri {uri:?} is {what}: it reads {file}, outside the model's folder \
+             (glTF expects URIs relative to the file; the model breaks when moved or shared)"
+        );
+        let warnings = assert_warning(&o, &dir, &expected);
+        assert!(warnings.contains(&expected), "{warnings:?}");
+    }
+    // Inside the folder: no such warning.
+    std::fs::copy(&bin, dir.join("models/floor.bin")).unwrap();
+    common::gltf_writer::write_json(&dir.join("models/floor.gltf"), &b.json("./floor.bin"));
+    let o = render(&dir, &model_scene("models/floor.gltf"), &[]);
+    let warnings = assert_warning(&o, &dir, "dropped");
+    assert!(!warnings.iter().any(|w| w.contains("outside the model's folder")), "{warnings:?}");
+}
+
 #[test]
 fn truncated_glb_is_named() {
     let dir = TempDir::new("bounds-glb");

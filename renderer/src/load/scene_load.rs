@@ -30,7 +30,7 @@ impl Scene {
         // camera looks, and geometry far away cannot cost the visible part its precision.
         let world_offset = camera_world_position(file, gltf_camera.as_ref()).unwrap_or(DVec3::ZERO);
         let (lo, hi) = world_bounds(&geometry.triangles);
-        let mut warnings = Vec::new();
+        let mut warnings = std::mem::take(&mut geometry.warnings);
         let lights = scene_lights(file, &geometry, 0.5 * (lo + hi), world_offset, scene_path, &mut warnings)?;
         let camera = scene_camera(file, gltf_camera, world_offset, scene_path)?;
         let load = t0.elapsed();

@@ -51,6 +51,9 @@ pub struct Geometry {
     pub emitters: Vec<EmitterCandidate>,
     /// Triangles dropped because they have zero area.
     pub degenerate: u64,
+    /// One line each: what a user should hear of the files loaded (URIs out of a model's
+    /// folder).
+    pub warnings: Vec<String>,
 }
 
 /// What every primitive of one file reads beside itself: the file (its errors name it), its
@@ -78,6 +81,7 @@ pub fn load_gltf(
         None => fail("", format!("cannot load glTF: {e}")),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
+    geometry.warnings.extend(uris_out_of_folder(path, base, &gltf.document));
     let buffers = load_buffers(path, base, &gltf.document, gltf.blob.clone())?;
     let doc = &gltf.document;
 
@@ -119,6 +123,63 @@ fn uri_path(base: &Path, uri: &str) -> Option<std::path::PathBuf> {
         Some(p) => std::path::PathBuf::from(p),
         None => base.join(decoded),
     })
+}
+
+/// Where a buffer or image URI leads out of the model's folder: "an absolute path", "an
+/// absolute file: URI" or "a relative path out of the model's folder" (lexically, by its
+/// `..`s); `None` for a `data:` URI or a path inside the folder.
+fn out_of_folder(uri: &str) -> Option<&'static str> {
+    if uri.starts_with("data:") {
+        return None;
+    }
+    let decoded = urlencoding::decode(uri).map_or_else(|_| uri.to_string(), |d| d.into_owned());
+    if decoded.starts_with("file:") {
+        return Some("an absolute file: URI");
+    }
+    let rel = Path::new(&decoded);
+    if rel.has_root() || decoded.starts_with('\\') || decoded.get(1..2) == Some(":") {
+        return Some("an absolute path");
+    }
+    let mut depth = 0i32;
+    for c in rel.components() {
+        match c {
+            std::path::Component::ParentDir => depth -= 1,
+            std::path::Component::Normal(_) => depth += 1,
+            _ => {}
+        }
+        if depth < 0 {
+            return Some("a relative path out of the model's folder");
+        }
+    }
+    None
+}
+
+/// A warning per buffer and image URI that leads out of the model's folder. They load (a
+/// production scene may share textures between models, and refusing would break files other
+/// tools open), but glTF's norm is a URI relative to the file and inside its folder: an
+/// absolute path breaks when the model is moved or shared, and a scene from elsewhere can
+/// make the renderer read any file the user can, so the user hears which file it reads.
+fn uris_out_of_folder(path: &Path, base: &Path, doc: &gltf::Document) -> Vec<String> {
+    let buffers = doc.buffers().filter_map(|b| match b.source() {
+        gltf::buffer::Source::Uri(uri) => Some((format!("buffers[{}].uri", b.index()), uri)),
+        gltf::buffer::Source::Bin => None,
+    });
+    let images = doc.images().filter_map(|i| match i.source() {
+        gltf::image::Source::Uri { uri, .. } => Some((format!("images[{}].uri", i.index()), uri)),
+        gltf::image::Source::View { .. } => None,
+    });
+    buffers
+        .chain(images)
+        .filter_map(|(key, uri)| {
+            let what = out_of_folder(uri)?;
+            let file = uri_path(base, uri).map_or_else(|| uri.to_string(), |p| p.display().to_string());
+            Some(format!(
+                "{}: {key} {uri:?} is {what}: it reads {file}, outside the model's folder (glTF expects \
+                 URIs relative to the file; the model breaks when moved or shared)",
+                path.display()
+            ))
+        })
+        .collect()
 }
 
 /// The document's buffers, each loaded on its own so that an error names the buffer and the
