@@ -242,6 +242,38 @@ fn a_missing_scene_is_one_line_and_writes_nothing() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// An output folder the reports cannot be written in is refused before any scene is
+/// benched: a 0o555 folder, or `/sys` where the tests run as root (root writes anywhere
+/// else). One line naming the folder and `--out`, exit 2.
+#[test]
+fn a_read_only_output_folder_is_refused_before_benching() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = temp_dir("read-only");
+    let ro = dir.join("ro");
+    std::fs::create_dir_all(&ro).unwrap();
+    std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
+    let writable = |d: &Path| {
+        let probe = d.join("probe");
+        let ok = std::fs::write(&probe, b"").is_ok();
+        let _ = std::fs::remove_file(&probe);
+        ok
+    };
+    let Some(out) = [ro.clone(), PathBuf::from("/sys")].into_iter().find(|d| d.is_dir() && !writable(d))
+    else {
+        eprintln!("no read-only folder here: the check is skipped");
+        return;
+    };
+    std::fs::write(dir.join("tiny.toml"), TINY_SCENE).unwrap();
+    let o = bench(&[dir.join("tiny.toml").to_str().unwrap(), "--quick", "--out", out.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    let expected = format!("error: {0}: --out: cannot write in the folder {0}: ", out.display());
+    assert!(err.starts_with(&expected) && err.trim().lines().count() == 1, "{err:?}");
+    assert_eq!(std::fs::read_dir(&ro).unwrap().count(), 0, "something was written");
+    std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The truth's key covers a model's buffer, not only the scene file: appending to the .bin
 /// (the glTF still loads; the bytes differ) renders the truth anew.
 #[test]

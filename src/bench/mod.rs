@@ -129,8 +129,10 @@ pub fn run_bench_in(args: &BenchArgs, methods: &[Registered]) -> Result<String, 
         methods,
     };
     let scenes = scene::check_scenes(args)?;
-    // A bad budget variable is refused before any scene is benched.
+    // A bad budget variable, or a folder the reports cannot be written in, is refused
+    // before any scene is benched (the reports are written at the end).
     crate::memory::budget_override()?;
+    renderer::util::output::check_writable_folder(&out).map_err(|e| SceneError::new(&out, "--out", e))?;
     std::fs::create_dir_all(&out)
         .map_err(|e| SceneError::new(&out, "--out", format!("cannot create the folder: {e}")))?;
 
