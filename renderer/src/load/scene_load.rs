@@ -31,7 +31,15 @@ impl Scene {
         let world_offset = camera_world_position(file, gltf_camera.as_ref()).unwrap_or(DVec3::ZERO);
         let (lo, hi) = world_bounds(&geometry.triangles);
         let mut warnings = std::mem::take(&mut geometry.warnings);
-        let lights = scene_lights(file, &geometry, 0.5 * (lo + hi), world_offset, scene_path, &mut warnings)?;
+        let extent = if lo.x <= hi.x { (hi - lo).length() } else { 0.0 };
+        let lights = scene_lights(
+            file,
+            &geometry,
+            (0.5 * (lo + hi), extent),
+            world_offset,
+            scene_path,
+            &mut warnings,
+        )?;
         let camera = scene_camera(file, gltf_camera, world_offset, scene_path)?;
         let load = t0.elapsed();
         drop(load_span);
@@ -351,8 +359,14 @@ pub struct LightPlacement {
 /// there: its corners must stay a real rectangle in f32 at its distance from the camera, or
 /// its irradiance could not be computed (a 1e-30 m light 2 m away is one point in f32; a
 /// 0.9 m light 10^7 m from the camera, where f32 spacing is 1 m, likewise: the camera's
-/// distance is then the culprit, and the message says so).
-pub fn light_in_render_space(l: &LightDesc, world_offset: DVec3) -> Result<RectLight, LightPlacement> {
+/// distance is then the culprit, and the message says so: the light is a real rectangle in
+/// f32 about its own centre and the camera is over 10x the scene's extent `scene_extent`
+/// (world, m) away from it).
+pub fn light_in_render_space(
+    l: &LightDesc,
+    world_offset: DVec3,
+    scene_extent: f64,
+) -> Result<RectLight, LightPlacement> {
     let centre = DVec3::from(l.center) - world_offset;
     let light = RectLight::new(
         centre.as_vec3(),
@@ -367,7 +381,8 @@ pub fn light_in_render_space(l: &LightDesc, world_offset: DVec3) -> Result<RectL
         let at_origin = RectLight::new(Vec3::ZERO, u.as_vec3(), v.as_vec3(), Vec3::ONE);
         let o = at_origin.corners().map(|c| c.as_dvec3());
         let fine_nearby = !is_degenerate([o[0], o[1], o[2]]) && at_origin.normal.is_finite();
-        let message = if fine_nearby {
+        let camera_too_far = fine_nearby && d > 10.0 * (scene_extent + u.length() + v.length());
+        let message = if camera_too_far {
             format!(
                 "the camera is {d:.3e} m from the light ({:.3e} x {:.3e} m), where f32 positions are spaced \
                  {:.3e} m: render space is centred on the camera, so the light's area and irradiance \
@@ -385,18 +400,19 @@ pub fn light_in_render_space(l: &LightDesc, world_offset: DVec3) -> Result<RectL
                 f32_spacing(d),
             )
         };
-        return Err(LightPlacement { message, camera_too_far: fine_nearby });
+        return Err(LightPlacement { message, camera_too_far });
     }
     Ok(light)
 }
 
 /// The lights in render space (world minus `world_offset`): the scene file's, or else the
-/// emissive rectangles of the models (double-sided ones facing `scene_centre`, world space).
-/// An emissive rectangle f32 cannot hold is skipped with a line in `warnings`.
+/// emissive rectangles of the models (double-sided ones facing `scene_centre`, world space;
+/// `scene_extent` the geometry's diagonal). An emissive rectangle f32 cannot hold is skipped
+/// with a line in `warnings`.
 fn scene_lights(
     file: &SceneFile,
     geometry: &Geometry,
-    scene_centre: DVec3,
+    (scene_centre, scene_extent): (DVec3, f64),
     world_offset: DVec3,
     scene_path: &Path,
     warnings: &mut Vec<String>,
@@ -407,7 +423,7 @@ fn scene_lights(
             .iter()
             .enumerate()
             .map(|(k, l)| {
-                light_in_render_space(l, world_offset).map_err(|e| {
+                light_in_render_space(l, world_offset, scene_extent).map_err(|e| {
                     let key = match (e.camera_too_far, file.camera.from_gltf) {
                         (false, _) => format!("light[{k}].u"),
                         (true, false) => "camera.position".to_string(),
@@ -423,7 +439,7 @@ fn scene_lights(
         if let Some(desc) = rectangle_light(e, scene_centre)
             && validate_light(&desc, "emitter", scene_path).is_ok()
         {
-            match light_in_render_space(&desc, world_offset) {
+            match light_in_render_space(&desc, world_offset, scene_extent) {
                 Ok(light) => found.push(light),
                 Err(e) => warnings.push(format!("an emissive rectangle is not a light: {}", e.message)),
             }
