@@ -21,7 +21,11 @@ pub struct TriangleShading {
     pub material: u32,
 }
 
-/// A closest hit: where, with which normals (both facing the side the ray came from).
+/// A closest hit: where, with which normals. Both face the side the ray came from, each by
+/// its own plane ([`ShadingPoint`]): the geometric normal for ray origins, the shading normal
+/// for reflection, so a surface reflects only light arriving on the same side of its shading
+/// plane as the ray that found it. Where smoothed normals tilt the shading plane past the
+/// ray, the two point to different sides of the geometric plane.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfaceHit {
     pub t: f32,
@@ -133,6 +137,23 @@ impl Scene {
         n.normalize_or_zero().as_vec3()
     }
 
+    /// The shading normal `n` (zero: none, the geometric one stands in) on the side of the
+    /// ray that arrived along `d`: the two-sided Lambertian reflects on the side of the
+    /// shading plane the incoming direction lies on, as pbrt-v4 (`SameHemisphere`) and
+    /// Mitsuba 3's two-sided diffuse do. Flipping it onto `n_geom`'s side instead reflected
+    /// light arriving below the shading plane above it: 4.6% more light than Mitsuba in a
+    /// closed box with corner-averaged normals, 20% in its corners (issue 26). A ray in the
+    /// shading plane (`n . d` exactly 0) takes `n_geom`'s side, so where the normals agree
+    /// nothing changes.
+    #[inline]
+    fn facing_ray(n: Vec3, n_geom: Vec3, d: Vec3) -> Vec3 {
+        if n == Vec3::ZERO {
+            return n_geom;
+        }
+        let cos = n.dot(d);
+        if cos > 0.0 || (cos == 0.0 && n.dot(n_geom) < 0.0) { -n } else { n }
+    }
+
     #[inline]
     fn uv_at(&self, slot: usize, b1: f32, b2: f32) -> Vec2 {
         let uv = &self.shading[slot].uv;
@@ -179,13 +200,8 @@ impl Scene {
             n_geom = -n_geom;
         }
         let sh = &self.shading[slot];
-        let mut n_shading = ((1.0 - b1 - b2) * sh.n[0] + b1 * sh.n[1] + b2 * sh.n[2]).normalize_or_zero();
-        if n_shading == Vec3::ZERO {
-            n_shading = n_geom;
-        }
-        if n_shading.dot(n_geom) < 0.0 {
-            n_shading = -n_shading;
-        }
+        let n_shading = ((1.0 - b1 - b2) * sh.n[0] + b1 * sh.n[1] + b2 * sh.n[2]).normalize_or_zero();
+        let n_shading = Self::facing_ray(n_shading, n_geom, d);
         Some(SurfaceHit {
             t: hit.t,
             point: ShadingPoint { p, p_error, n_geom, n_shading },
