@@ -164,10 +164,14 @@ fn uris_out_of_folder(path: &Path, base: &Path, doc: &gltf::Document) -> Vec<Str
         gltf::buffer::Source::Uri(uri) => Some((format!("buffers[{}].uri", b.index()), uri)),
         gltf::buffer::Source::Bin => None,
     });
-    let images = doc.images().filter_map(|i| match i.source() {
-        gltf::image::Source::Uri { uri, .. } => Some((format!("images[{}].uri", i.index()), uri)),
-        gltf::image::Source::View { .. } => None,
-    });
+    // From the JSON, not `Image::source`: that unwraps the mime type of an image in a buffer
+    // view and panics where it is missing (a kept fuzz input); `image_source_problem` names it.
+    let images = doc
+        .as_json()
+        .images
+        .iter()
+        .enumerate()
+        .filter_map(|(i, image)| image.uri.as_deref().map(|uri| (format!("images[{i}].uri"), uri)));
     buffers
         .chain(images)
         .filter_map(|(key, uri)| {
