@@ -73,7 +73,11 @@ pub fn check_writable_folder(dir: &Path) -> Result<(), String> {
     if !existing.is_dir() {
         return Err(format!("{} is not a folder", existing.display()));
     }
-    let probe = existing.join(format!(".penumbra-write-check.{}.tmp", std::process::id()));
+    // Unique per call, not only per process: renders on several threads of one process
+    // (the tests) probe the same folder at once, and `create_new` refuses a name in use.
+    static PROBES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = PROBES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let probe = existing.join(format!(".penumbra-write-check.{}.{n}.tmp", std::process::id()));
     let created = {
         // Registered like a staged file, so that a signal in between removes it too.
         let mut registry = staged_registry();
