@@ -5,7 +5,7 @@
 mod common;
 
 use renderer::methods::traced::{Traced, TracedParams};
-use renderer::{LightShadowing, RenderSettings, Scene, SceneFile, render};
+use renderer::{Frame, LightShadowing, RenderSettings, Scene, SceneFile, render};
 use std::collections::HashSet;
 use std::path::Path;
 
@@ -22,8 +22,8 @@ fn far_quad(x: f64) -> String {
     format!("[[quad]]\ncenter = [{x:e}, 0.0, 0.0]\nu = [1.0, 0.0, 0.0]\nv = [0.0, 0.0, -1.0]\n")
 }
 
-/// Traced visibility (light 0) of `scene` at 160 x 120, 64 samples, seed 7.
-fn visibility(scene: &Scene) -> Vec<f32> {
+/// The frame `traced` renders of `scene` at 160 x 120, 64 samples, seed 7, direct light.
+fn traced_frame(scene: &Scene) -> Frame {
     let mut methods: Vec<Box<dyn LightShadowing>> =
         vec![Box::new(Traced::new(TracedParams { samples: 64, ..TracedParams::default() }))];
     let settings = RenderSettings {
@@ -35,8 +35,12 @@ fn visibility(scene: &Scene) -> Vec<f32> {
         profile: false,
         max_depth: 2,
     };
-    let frame = render(scene, &mut methods, &settings, &|_| {}).unwrap();
-    frame.visibility[0].clone()
+    render(scene, &mut methods, &settings, &|_| {}).unwrap()
+}
+
+/// Traced visibility (light 0) of `scene` ([`traced_frame`]).
+fn visibility(scene: &Scene) -> Vec<f32> {
+    traced_frame(scene).visibility.swap_remove(0)
 }
 
 fn triangle_bits(scene: &Scene) -> HashSet<[u32; 9]> {
@@ -226,21 +230,10 @@ fn huge_floor_scene(size: f64) -> Scene {
     Scene::load(&SceneFile::parse(&text, path).unwrap(), path).unwrap()
 }
 
-/// Traced visibility and radiance of `scene` at 160 x 120, 64 samples, seed 7.
+/// Traced visibility and radiance of `scene` ([`traced_frame`]).
 fn frame_of(scene: &Scene) -> (Vec<f32>, Vec<glam::Vec3>) {
-    let mut methods: Vec<Box<dyn LightShadowing>> =
-        vec![Box::new(Traced::new(TracedParams { samples: 64, ..TracedParams::default() }))];
-    let settings = RenderSettings {
-        width: 160,
-        height: 120,
-        spp: 1,
-        seed: 7,
-        memory_budget_bytes: 1 << 30,
-        profile: false,
-        max_depth: 2,
-    };
-    let frame = render(scene, &mut methods, &settings, &|_| {}).unwrap();
-    (frame.visibility[0].clone(), frame.radiance)
+    let mut frame = traced_frame(scene);
+    (frame.visibility.swap_remove(0), frame.radiance)
 }
 
 /// The user's report: the default scene's floor enlarged to 10^6 m put 1.35% of pixels'
@@ -291,22 +284,11 @@ fn a_huge_floor_renders_as_a_small_one_or_is_named() {
     }
 }
 
-/// Shadow rays `traced` casts for the default scene with `extra` appended (160 x 120, 64
-/// samples), and the scene's triangle count.
+/// Shadow rays `traced` casts for the default scene with `extra` appended
+/// ([`traced_frame`]), and the scene's triangle count.
 fn shadow_rays(extra: &str) -> (u64, u64) {
     let scene = default_scene(extra);
-    let mut methods: Vec<Box<dyn LightShadowing>> =
-        vec![Box::new(Traced::new(TracedParams { samples: 64, ..TracedParams::default() }))];
-    let settings = RenderSettings {
-        width: 160,
-        height: 120,
-        spp: 1,
-        seed: 7,
-        memory_budget_bytes: 1 << 30,
-        profile: false,
-        max_depth: 2,
-    };
-    (render(&scene, &mut methods, &settings, &|_| {}).unwrap().counters["shadow_rays"], scene.stats.triangles)
+    (traced_frame(&scene).counters["shadow_rays"], scene.stats.triangles)
 }
 
 /// The user's report: one 1 m quad out of view at 10^6 m made every render ~9x slower
