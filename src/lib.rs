@@ -6,16 +6,19 @@ pub mod config;
 pub mod heat;
 pub mod key_reference;
 pub mod memory;
+pub mod merge;
 pub mod methods;
 pub mod profile;
 pub mod progress;
 pub mod report;
+pub mod scene_files;
+pub mod tile;
 
 use crate::config::ShadowsConfig;
 use crate::progress::PhaseProgress;
 use crate::report::{RunReport, Timings};
 use renderer::util::output::StagedFiles;
-use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod, render};
+use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -74,6 +77,12 @@ pub struct RenderArgs {
     /// No progress bar and no summary on stdout. Warnings and errors still go to stderr.
     #[arg(long)]
     pub quiet: bool,
+    /// Render only tile K (0-based) of N, a band of rows, for a farm: writes the tile's
+    /// report at PATH.json and its pixels beside it (PATH.exr, and the AOVs and cost layers
+    /// when asked; no PNG). `penumbra merge` assembles the tiles into the whole render's
+    /// bytes.
+    #[arg(long, value_name = "K/N", value_parser = tile::TileSpec::parse)]
+    pub tile: Option<tile::TileSpec>,
     /// Code only (no flag): render with these method settings instead of the scene's, for
     /// studies that switch what a scene file cannot (a plugin's code-only fields).
     #[arg(skip)]
@@ -104,15 +113,26 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
         let scene = Scene::load(&plan.file, &plan.scene_path)?;
         let loaded = t_total.elapsed();
         let frame = render_frame(&plan, &scene, args.seed, args.profile, &progress)?;
+        let png = &plan.png;
 
         // Outputs: all staged, then committed together.
         progress.phase("writing the outputs", 0);
         let t_write = Instant::now();
         let mut staged = StagedFiles::default();
         let outputs = tracing::info_span!("write").in_scope(|| {
-            let mut outputs = stage_images(&plan, &frame, args.aov, &mut staged)?;
+            if plan.tile.is_some() {
+                return tile::stage_tile_images(png, &frame, args.aov, &mut staged);
+            }
+            let px = Pixels {
+                width: plan.width,
+                height: plan.height,
+                radiance: &frame.radiance,
+                visibility: &frame.visibility,
+            };
+            let mut outputs = stage_images(png, &px, args.aov, &mut staged)?;
             if let Some(costs) = &frame.costs {
-                outputs.extend(stage_profile(&plan, &frame, costs, &mut staged)?);
+                let missed = missed_pixels(&frame, costs.len());
+                outputs.extend(stage_profile(png, [plan.width, plan.height], costs, &missed, &mut staged)?);
             }
             Ok::<_, CliError>(outputs)
         })?;
@@ -131,7 +151,12 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     let json_path = plan.png.with_extension("json");
     outputs.push(json_path.clone());
     let phases = Phases { loaded, write: t_write.elapsed(), total: t_total.elapsed() };
-    let report = build_report(&plan, args.seed, threads, &scene, &frame, &outputs, phases);
+    let mut report = build_report(&plan, args.seed, threads, &scene, &frame, &outputs, phases);
+    if let (Some(spec), Some(fingerprint)) = (plan.tile, &plan.fingerprint) {
+        report.tile = Some(tile::tile_info(spec, fingerprint, args, &scene, &frame));
+        // The frame's own warnings wait for the merge: a tile of sky is not a black image.
+        report.warnings = scene.warnings.iter().chain(&frame.method_warnings).cloned().collect();
+    }
     let json = serde_json::to_vec_pretty(&report).expect("the report serialises");
     staged.bytes(&json_path, &json).map_err(io)?;
     staged.commit().map_err(io)?;
@@ -158,6 +183,9 @@ struct RenderPlan {
     spp: u32,
     max_depth: u32,
     png: PathBuf,
+    /// `--tile`, and the fingerprint its report carries.
+    tile: Option<tile::TileSpec>,
+    fingerprint: Option<String>,
 }
 
 /// Reads the scene file and applies `args`' overrides, checking every setting before
@@ -185,7 +213,34 @@ fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
             renderer::integrator::path::DEPTH_RANGE_TEXT,
         ));
     }
-    Ok(RenderPlan { scene_path, file, shadows, width, height, spp, max_depth, png })
+    let mut plan = RenderPlan {
+        scene_path,
+        file,
+        shadows,
+        width,
+        height,
+        spp,
+        max_depth,
+        png,
+        tile: args.tile,
+        fingerprint: None,
+    };
+    if let Some(spec) = args.tile {
+        spec.check(height, &plan.scene_path)?;
+        plan.fingerprint = Some(tile::fingerprint(&tile::FingerprintInputs {
+            scene_path: &plan.scene_path,
+            embedded: args.scene.is_none().then_some(DEFAULT_SCENE),
+            file: &plan.file,
+            method: format!("{:?}", plan.shadows.method()),
+            samples: plan.shadows.samples,
+            size: [width, height, spp, max_depth],
+            seed: args.seed,
+            count: spec.count,
+            aov: args.aov,
+            profile: args.profile,
+        })?);
+    }
+    Ok(plan)
 }
 
 /// The scene file's `[shadows]` with `--shadows`, `--samples` and a code-only method
@@ -276,35 +331,51 @@ fn render_frame(
         profile,
         max_depth: plan.max_depth,
     };
-    render(scene, &mut methods, &settings, &|p| progress.report(p))
+    let rows = plan.tile.map_or(0..plan.height, |t| t.rows(plan.height));
+    renderer::render_rows(scene, &mut methods, &settings, rows, &|p| progress.report(p))
         .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))
 }
 
-/// Stages the PNG, the EXR beside it and, with `aov`, each light's visibility EXR, after
-/// creating the output folder. Returns their paths in that order.
-fn stage_images(
-    plan: &RenderPlan,
-    frame: &Frame,
-    aov: bool,
-    staged: &mut StagedFiles,
-) -> Result<Vec<PathBuf>, CliError> {
-    let (png, width, height) = (&plan.png, plan.width, plan.height);
-    // A NaN or an infinity never reaches a file: refuse before anything is staged.
-    let exr = png.with_extension("exr");
-    renderer::util::output::check_finite(&frame.radiance).map_err(|e| {
-        SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
-    })?;
+/// A frame's pixels as the outputs write them: a whole render's, or a merge's tiles'.
+pub struct Pixels<'a> {
+    pub width: u32,
+    pub height: u32,
+    pub radiance: &'a [glam::Vec3],
+    /// Per light, as [`renderer::Frame::visibility`].
+    pub visibility: &'a [Vec<f32>],
+}
+
+/// Creates the folder `png` goes in.
+pub fn create_output_folder(png: &Path) -> Result<(), CliError> {
     if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| SceneError::new(dir, "--out", format!("cannot create the folder: {e}")))?;
     }
+    Ok(())
+}
+
+/// Stages the PNG, the EXR beside it and, with `aov`, each light's visibility EXR and PNG,
+/// after creating the output folder. Returns their paths in that order.
+pub fn stage_images(
+    png: &Path,
+    px: &Pixels,
+    aov: bool,
+    staged: &mut StagedFiles,
+) -> Result<Vec<PathBuf>, CliError> {
+    let (width, height) = (px.width, px.height);
+    // A NaN or an infinity never reaches a file: refuse before anything is staged.
+    let exr = png.with_extension("exr");
+    renderer::util::output::check_finite(px.radiance).map_err(|e| {
+        SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
+    })?;
+    create_output_folder(png)?;
     let io = |e: String| SceneError::new(png, "--out", e);
-    let mut outputs = vec![png.clone()];
-    staged.png(png, width, height, &frame.radiance).map_err(io)?;
-    staged.exr(&exr, width, height, &frame.radiance).map_err(io)?;
+    let mut outputs = vec![png.to_path_buf()];
+    staged.png(png, width, height, px.radiance).map_err(io)?;
+    staged.exr(&exr, width, height, px.radiance).map_err(io)?;
     outputs.push(exr);
     if aov {
-        for (k, vis) in frame.visibility.iter().enumerate() {
+        for (k, vis) in px.visibility.iter().enumerate() {
             let path = png.with_extension(format!("visibility.{k}.exr"));
             let rgb: Vec<glam::Vec3> = vis.iter().map(|&v| glam::Vec3::splat(v)).collect();
             staged.exr(&path, width, height, &rgb).map_err(io)?;
@@ -323,25 +394,32 @@ fn stage_images(
     Ok(outputs)
 }
 
-/// Stages `--profile`'s images: the cost EXR and its heat map. Returns their paths.
-fn stage_profile(
-    plan: &RenderPlan,
-    frame: &Frame,
+/// The pixels no primary ray hits (read off the first light's visibility; none without a
+/// light), which the cost heat map marks.
+pub fn missed_pixels(frame: &Frame, pixels: usize) -> Vec<bool> {
+    match frame.visibility.first() {
+        Some(v) => v.iter().map(|&v| v < 0.0).collect(),
+        None => vec![false; pixels],
+    }
+}
+
+/// Stages `--profile`'s images beside `png`: the cost EXR and its heat map (`missed`: the
+/// pixels it marks). Returns their paths.
+pub fn stage_profile(
+    png: &Path,
+    [width, height]: [u32; 2],
     costs: &[renderer::util::profile::PixelCost],
+    missed: &[bool],
     staged: &mut StagedFiles,
 ) -> Result<Vec<PathBuf>, CliError> {
-    let (exr, png) = (plan.png.with_extension("cost.exr"), plan.png.with_extension("cost.png"));
-    let missed: Vec<bool> = match frame.visibility.first() {
-        Some(v) => v.iter().map(|&v| v < 0.0).collect(),
-        None => vec![false; costs.len()],
-    };
+    let (exr, heat) = (png.with_extension("cost.exr"), png.with_extension("cost.png"));
     let exr_bytes =
-        profile::cost_exr(plan.width, plan.height, costs).map_err(|e| SceneError::new(&exr, "", e))?;
+        profile::cost_exr(width, height, costs, None).map_err(|e| SceneError::new(&exr, "", e))?;
     staged.bytes(&exr, &exr_bytes).map_err(|e| SceneError::new(&exr, "--out", e))?;
-    let png_bytes = profile::cost_png(plan.width, plan.height, costs, &missed)
-        .map_err(|e| SceneError::new(&png, "", e))?;
-    staged.bytes(&png, &png_bytes).map_err(|e| SceneError::new(&png, "--out", e))?;
-    Ok(vec![exr, png])
+    let png_bytes =
+        profile::cost_png(width, height, costs, missed).map_err(|e| SceneError::new(&heat, "", e))?;
+    staged.bytes(&heat, &png_bytes).map_err(|e| SceneError::new(&heat, "--out", e))?;
+    Ok(vec![exr, heat])
 }
 
 /// The run's report; `outputs` lists every file written (the report last), `t_total` is
@@ -383,6 +461,8 @@ fn build_report(
         counters: frame.counters.clone(),
         outputs: outputs.iter().map(|p| p.display().to_string()).collect(),
         warnings: scene.warnings.iter().chain(&frame.warnings).cloned().collect(),
+        tile: None,
+        tiles: None,
     }
 }
 

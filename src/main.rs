@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use penumbra::bench::{BenchArgs, run_bench};
+use penumbra::merge::{MergeArgs, run_merge};
 use penumbra::{RenderArgs, exit_cleanly_on_signals, run_render};
 use std::process::ExitCode;
 
@@ -23,6 +24,9 @@ enum Command {
     /// Shadow cost against error for every method and setting, against a cached traced truth:
     /// CSV, JSON, plots and an HTML report.
     Bench(BenchArgs),
+    /// Assemble the tiles of `render --tile K/N` into the whole render's PNG, EXR, AOVs and
+    /// report: the same bytes as rendering it at once.
+    Merge(MergeArgs),
 }
 
 fn main() -> ExitCode {
@@ -42,6 +46,7 @@ fn main() -> ExitCode {
                 }
             };
         }
+        Some(Command::Merge(m)) => return merge(&m),
         None => RenderArgs::default(),
     };
     match run_render(&args) {
@@ -73,7 +78,37 @@ fn main() -> ExitCode {
                      write {:.3}s, total {:.3}s",
                     t.load, t.bvh, t.visible_points, t.shadow_prepare, t.render, t.write, t.total
                 );
+                if let Some(t) = &r.tile {
+                    println!(
+                        "tile {} of {}: rows {}..{}; merge every tile with `penumbra merge`",
+                        t.index, t.count, t.rows[0], t.rows[1]
+                    );
+                }
                 println!("wrote {}", r.outputs.join(", "));
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// `penumbra merge`: warnings to stderr, a summary unless `--quiet`.
+fn merge(args: &MergeArgs) -> ExitCode {
+    match run_merge(args) {
+        Ok(report) => {
+            for w in &report.warnings {
+                eprintln!("warning: {w}");
+            }
+            if !args.quiet {
+                let tiles = report.tiles.as_ref().map_or(0, Vec::len);
+                println!(
+                    "{}: {} {}x{} from {tiles} tile(s), {:.3}s of rendering in all",
+                    report.scene, report.method, report.width, report.height, report.timings_s.total
+                );
+                println!("wrote {}", report.outputs.join(", "));
             }
             ExitCode::SUCCESS
         }

@@ -50,18 +50,29 @@ impl Trace {
 }
 
 /// The cost EXR: one-channel layers `time.Y` (seconds of shading, f32) and `rays.Y`,
-/// `shafts.Y`, `lookups.Y` (counts, u32), per pixel.
-pub fn cost_exr(width: u32, height: u32, costs: &[PixelCost]) -> Result<Vec<u8>, String> {
+/// `shafts.Y`, `lookups.Y` (counts, u32), per pixel; a tile's also `missed.Y` (1 where no
+/// primary ray hits), for the merged heat map.
+pub fn cost_exr(
+    width: u32,
+    height: u32,
+    costs: &[PixelCost],
+    missed: Option<&[bool]>,
+) -> Result<Vec<u8>, String> {
     use exr::prelude::*;
     let count = |f: fn(&PixelCost) -> u64| {
         FlatSamples::U32(costs.iter().map(|c| f(c).min(u32::MAX as u64) as u32).collect())
     };
-    let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+    let mut layers = vec![
         AnyChannel::new("time.Y", FlatSamples::F32(costs.iter().map(|c| c.time_s).collect())),
         AnyChannel::new("rays.Y", count(|c| c.work.rays)),
         AnyChannel::new("shafts.Y", count(|c| c.work.shafts)),
         AnyChannel::new("lookups.Y", count(|c| c.work.lookups)),
-    ]));
+    ];
+    if let Some(missed) = missed {
+        layers
+            .push(AnyChannel::new("missed.Y", FlatSamples::U32(missed.iter().map(|&m| m as u32).collect())));
+    }
+    let channels = AnyChannels::sort(SmallVec::from_vec(layers));
     let layer = Layer::new(
         (width as usize, height as usize),
         LayerAttributes::default(),

@@ -1,11 +1,11 @@
 //! The run report (`PATH.json`), as the contract defines it plus what users ask next.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// Wall time of each phase, in seconds; the phases before `total` add up to it (to within
 /// the report's own serialisation and the final renames).
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct Timings {
     /// Reading the scene file and the glTF files, to render space (everything before the BVH).
     pub load: f64,
@@ -21,9 +21,22 @@ pub struct Timings {
     pub total: f64,
 }
 
+impl Timings {
+    /// Adds `other`'s phases to these (tiles' timings, summed).
+    pub fn add(&mut self, other: &Timings) {
+        self.load += other.load;
+        self.bvh += other.bvh;
+        self.visible_points += other.visible_points;
+        self.shadow_prepare += other.shadow_prepare;
+        self.render += other.render;
+        self.write += other.write;
+        self.total += other.total;
+    }
+}
+
 /// `--profile`'s sums over the image: the time of the pixels' shading (summed over threads,
 /// so about `render` minus the primary rays, times the threads) and the shadow work.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct ProfileTotals {
     pub shading_s: f64,
     pub rays: u64,
@@ -43,9 +56,20 @@ impl ProfileTotals {
         let shadow_s_by_vertex = vertices.iter().map(|v| v.seconds).collect();
         ProfileTotals { shading_s, rays: w.rays, shafts: w.shafts, lookups: w.lookups, shadow_s_by_vertex }
     }
+
+    /// Adds another tile's totals to these.
+    pub fn add(&mut self, other: &ProfileTotals) {
+        self.shading_s += other.shading_s;
+        self.rays += other.rays;
+        self.shafts += other.shafts;
+        self.lookups += other.lookups;
+        let v = &mut self.shadow_s_by_vertex;
+        v.resize(v.len().max(other.shadow_s_by_vertex.len()), 0.0);
+        v.iter_mut().zip(&other.shadow_s_by_vertex).for_each(|(a, b)| *a += b);
+    }
 }
 
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunReport {
     pub scene: String,
     pub method: String,
@@ -72,4 +96,45 @@ pub struct RunReport {
     /// light that reaches no visible point, a camera that sees nothing (lit), geometry f32
     /// cannot keep precise and how precise the visible part is. Empty when all is well.
     pub warnings: Vec<String>,
+    /// A tile's report only (`render --tile`): which tile, and what the merge needs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tile: Option<TileInfo>,
+    /// A merged report only (`merge`): each tile's run. `timings_s` is then their sum (the
+    /// machine time the farm spent, not the time it took), `threads` the most any tile used.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tiles: Option<Vec<TileRun>>,
+}
+
+/// What a tile's report holds beyond a render's: which rows it is, of what, and what the
+/// merge needs to give the whole frame's report.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TileInfo {
+    /// Tile `index` (0-based) of `count`.
+    pub index: u32,
+    pub count: u32,
+    /// The rows it holds, `[first, end)`, of the frame's `height`.
+    pub rows: [u32; 2],
+    /// A hash of the scene's files, the settings that change pixels and the program's
+    /// version: tiles merge only with tiles of the same fingerprint.
+    pub fingerprint: String,
+    /// Whether its visibility AOVs and cost layers were written.
+    pub aov: bool,
+    pub profile: bool,
+    /// The counters as they stood after `prepare` (the same in every tile).
+    pub prepare_counters: BTreeMap<String, u64>,
+    /// What the frame's warnings are made of, over its rows.
+    pub tally: renderer::FrameTally,
+    /// The scene's and the shadow methods' warnings (the same in every tile); `warnings`
+    /// holds these too, but none of the frame's, which only the whole frame can say.
+    pub scene_warnings: Vec<String>,
+    pub method_warnings: Vec<String>,
+}
+
+/// One tile's run, as a merged report keeps it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct TileRun {
+    pub index: u32,
+    pub rows: [u32; 2],
+    pub threads: usize,
+    pub timings_s: Timings,
 }

@@ -74,7 +74,7 @@ pub fn cache_key(
         |p: &Path| std::fs::read(p).map_err(|e| SceneError::new(p, "bench", format!("cannot read: {e}")));
     h.write(&read(scene_path)?);
     for model in &file.model {
-        for f in model_files(&SceneFile::resolve(scene_path, &model.path)) {
+        for f in crate::scene_files::model_files(&SceneFile::resolve(scene_path, &model.path)) {
             // Length-prefixed, so that no two file lists hash the same bytes.
             let bytes = read(&f)?;
             h.write_usize(bytes.len());
@@ -94,28 +94,6 @@ pub fn cache_key(
         h.write_u64(settings.max_depth as u64);
     }
     Ok(format!("{:016x}", h.finish()))
-}
-
-/// The files a model is made of: the file itself and, for a `.gltf`, the buffers and images
-/// its JSON names by (relative, percent-encoded) URI. Embedded `data:` URIs are in the file.
-fn model_files(model: &Path) -> Vec<PathBuf> {
-    let mut files = vec![model.to_path_buf()];
-    let is_gltf = model.extension().is_some_and(|e| e.eq_ignore_ascii_case("gltf"));
-    let json: Option<serde_json::Value> =
-        if is_gltf { std::fs::read(model).ok().and_then(|b| serde_json::from_slice(&b).ok()) } else { None };
-    let folder = model.parent().unwrap_or(Path::new(""));
-    if let Some(json) = json {
-        for list in ["buffers", "images"] {
-            for item in json[list].as_array().into_iter().flatten() {
-                if let Some(uri) = item["uri"].as_str().filter(|u| !u.starts_with("data:")) {
-                    // glTF URIs are percent-encoded; the gltf crate decodes them with `urlencoding`.
-                    let path = urlencoding::decode(uri).map_or_else(|_| uri.to_string(), |p| p.into_owned());
-                    files.push(folder.join(path));
-                }
-            }
-        }
-    }
-    files
 }
 
 fn entry_paths(cache: &Path, stem: &str, key: &str, lights: usize) -> (PathBuf, PathBuf, Vec<PathBuf>) {

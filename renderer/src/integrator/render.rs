@@ -6,6 +6,7 @@
 use crate::geometry::point::ShadingPoint;
 use crate::geometry::scene::{Scene, SurfaceHit};
 use crate::integrator::path::{PathContext, PathId, VertexQueries, merge_vertex_queries};
+use crate::integrator::tally::FrameTally;
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError};
 use crate::util::profile::{PixelCost, Work};
 use crate::util::sampling::{Rng, strata, stream_seed};
@@ -13,6 +14,7 @@ use glam::{Vec3, Vec3A};
 use obvhs::ray::Ray;
 use rayon::prelude::*;
 use std::collections::BTreeMap;
+use std::ops::Range;
 use std::time::{Duration, Instant};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -45,11 +47,16 @@ pub enum Progress {
 /// small enough that two threads share even a 120-row image evenly.
 pub const ROW_BAND: usize = 8;
 
-/// What a frame produces.
+/// What a frame produces: the whole frame, or the band of rows a tile asked for
+/// ([`render_rows`]).
 #[derive(Debug, Clone)]
 pub struct Frame {
+    /// The whole frame's size.
     pub width: u32,
     pub height: u32,
+    /// The rows rendered (all of them unless a tile's band was asked for): the per-pixel
+    /// buffers below hold `width x rows.len()` pixels, top row first.
+    pub rows: Range<u32>,
     /// Linear radiance, row-major, top row first.
     pub radiance: Vec<Vec3>,
     /// Per light k: visibility at each pixel's primary hit in [0, 1] (the mean over the
@@ -69,8 +76,18 @@ pub struct Frame {
     /// Shadow queries per path vertex (index 0 = the primary hit).
     pub vertex_queries: Vec<VertexQueries>,
     pub counters: BTreeMap<String, u64>,
+    /// The counters as they stood when every `prepare` had run (the visible points, masks
+    /// built, bytes held): the same in every tile of a frame, so tiles merge by summing
+    /// `counters - prepare_counters` and adding these once.
+    pub prepare_counters: BTreeMap<String, u64>,
+    /// What the frame's warnings are made of, over the rows rendered.
+    pub tally: FrameTally,
+    /// Each method's warnings from its `prepare` ("light k: ..."): the same in every tile.
+    pub method_warnings: Vec<String>,
     /// One line each: what makes this image suspect (nothing hit, no light reaching what the
-    /// camera sees, visible geometry f32 cannot keep precise). See [`frame_warnings`].
+    /// camera sees, visible geometry f32 cannot keep precise: [`FrameTally::warnings`]),
+    /// then `method_warnings`. For a band of rows, the band's alone: a tile's are merged
+    /// from the tallies.
     pub warnings: Vec<String>,
 }
 
@@ -90,17 +107,37 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Result<Frame, ShadowError> {
+    render_rows(scene, methods, settings, 0..settings.height, progress)
+}
+
+/// [`render`] for the band `rows` of the frame only (a tile): every method still prepares
+/// with the whole frame's visible points (a depth map fitted to what the camera sees is the
+/// same in every tile), so each pixel gets exactly the whole render's bytes.
+///
+/// # Errors
+/// The first error a method's `prepare` reports.
+pub fn render_rows(
+    scene: &Scene,
+    methods: &mut [Box<dyn LightShadowing>],
+    settings: &RenderSettings,
+    rows: Range<u32>,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Result<Frame, ShadowError> {
     assert_eq!(methods.len(), scene.lights.len(), "one shadow method per light");
-    let RenderSettings { width, height, .. } = *settings;
+    assert!(rows.start < rows.end && rows.end <= settings.height, "rows within the frame");
+    let RenderSettings { width, height, spp, .. } = *settings;
+    // Only for methods whose `prepare` reads them: `none`, `traced` and `silhouette` do not.
+    // Those that do need the whole frame's primary hits, whatever the rows.
+    let gather = methods.iter().any(|m| m.reads_visible_points());
+    let hit_rows = if gather { 0..height } else { rows.clone() };
 
     let t_primary = Instant::now();
-    progress(Progress::Phase { name: "primary rays", rows: height as u64 });
-    let hits = tracing::info_span!("primary_pass").in_scope(|| primary_hits(scene, settings, progress));
+    progress(Progress::Phase { name: "primary rays", rows: hit_rows.len() as u64 });
+    let hits =
+        tracing::info_span!("primary_pass").in_scope(|| primary_hits(scene, settings, &hit_rows, progress));
     let primary_time = t_primary.elapsed();
 
     let t_gather = Instant::now();
-    // Only for methods whose `prepare` reads them: `none`, `traced` and `silhouette` do not.
-    let gather = methods.iter().any(|m| m.reads_visible_points());
     let visible = if gather {
         progress(Progress::Phase { name: "gathering visible points", rows: 0 });
         tracing::info_span!("visible_points").in_scope(|| {
@@ -117,34 +154,42 @@ pub fn render(
         Vec::new()
     };
     let visible_points = t_gather.elapsed();
-    let gathered = visible.len() as u64;
 
     let t_prepare = Instant::now();
     progress(Progress::Phase { name: "preparing the shadow method", rows: 0 });
     prepare_lights(scene, methods, &visible, settings)?;
+    let mut prepare_counters = BTreeMap::from([("visible_points".to_string(), visible.len() as u64)]);
+    add_method_counters(methods, &mut prepare_counters);
     drop(visible);
     let shadow_prepare = t_prepare.elapsed();
 
     let t_shade = Instant::now();
-    progress(Progress::Phase { name: "shading", rows: height as u64 });
-    let shaded = tracing::info_span!("shading").in_scope(|| shade(scene, methods, &hits, settings, progress));
+    progress(Progress::Phase { name: "shading", rows: rows.len() as u64 });
+    let per_row = width as usize * spp as usize;
+    let band =
+        (rows.start - hit_rows.start) as usize * per_row..(rows.end - hit_rows.start) as usize * per_row;
+    let band_hits = &hits[band];
+    let shaded = tracing::info_span!("shading")
+        .in_scope(|| shade(scene, methods, band_hits, rows.start as usize, settings, progress));
 
-    let mut counters = BTreeMap::new();
-    counters.insert("shading_points".to_string(), shaded.shading_points);
-    counters.insert("shadow_queries".to_string(), shaded.shadow_queries);
-    counters.insert("visible_points".to_string(), gathered);
-    for m in methods.iter() {
-        for (name, value) in m.counters() {
-            *counters.entry(name.to_string()).or_insert(0) += value;
-        }
-    }
-    let (w, h, lights) = (width as usize, height as usize, scene.lights.len());
+    let mut counters = BTreeMap::from([
+        ("shading_points".to_string(), shaded.shading_points),
+        ("shadow_queries".to_string(), shaded.shadow_queries),
+        ("visible_points".to_string(), prepare_counters["visible_points"]),
+    ]);
+    add_method_counters(methods, &mut counters);
+    let (pixels, lights) = (width as usize * rows.len(), scene.lights.len());
     let visibility =
-        (0..lights).map(|k| (0..w * h).map(|i| shaded.visibility[i * lights + k]).collect()).collect();
-    let mut warnings = frame_warnings(scene, &hits, &shaded.facing, &shaded.lit);
-    for (k, m) in methods.iter().enumerate() {
-        warnings.extend(m.warnings().into_iter().map(|w| format!("light {k}: {w}")));
-    }
+        (0..lights).map(|k| (0..pixels).map(|i| shaded.visibility[i * lights + k]).collect()).collect();
+    let mut tally = FrameTally::of_hits(scene, band_hits);
+    tally.facing = shaded.facing;
+    tally.lit = shaded.lit;
+    let method_warnings: Vec<String> = methods
+        .iter()
+        .enumerate()
+        .flat_map(|(k, m)| m.warnings().into_iter().map(move |w| format!("light {k}: {w}")))
+        .collect();
+    let warnings = tally.warnings().into_iter().chain(method_warnings.iter().cloned()).collect();
     let render = primary_time + t_shade.elapsed();
     if settings.max_depth > 2 {
         for (i, v) in shaded.vertex_queries.iter().enumerate() {
@@ -157,6 +202,7 @@ pub fn render(
     Ok(Frame {
         width,
         height,
+        rows,
         radiance: shaded.radiance,
         visibility,
         visible_points,
@@ -165,76 +211,36 @@ pub fn render(
         costs: shaded.costs,
         vertex_queries: shaded.vertex_queries,
         counters,
+        prepare_counters,
+        tally,
+        method_warnings,
         warnings,
     })
 }
 
-/// The warnings of a frame, one line each: no primary ray hits anything; light k reaches no
-/// visible point (facing: per light, the shading points with non-zero irradiance; lit: those
-/// also with non-zero visibility); no light reaches any; and, when the scene holds triangles
-/// f32 cannot keep precise, how precise the visible part is.
-pub fn frame_warnings(
-    scene: &Scene,
-    hits: &[Option<SurfaceHit>],
-    facing: &[u64],
-    lit: &[u64],
-) -> Vec<String> {
-    use crate::geometry::precision::{SHAPE_PRECISION, f32_spacing};
-    let mut warnings = Vec::new();
-    let visible = hits.iter().flatten().count();
-    if visible == 0 {
-        warnings
-            .push("the camera sees nothing: no primary ray hits any geometry (the image is black)".into());
-        return warnings;
-    }
-    for (k, (&f, &l)) in facing.iter().zip(lit).enumerate() {
-        if f == 0 {
-            warnings.push(format!(
-                "light {k} reaches no visible point: every point the camera sees is behind its emitting \
-                 side or below the light's horizon"
-            ));
-        } else if l == 0 {
-            warnings.push(format!(
-                "light {k} reaches no visible point: {f} visible point(s) face it, all fully shadowed"
-            ));
+/// Adds every light's method counters into `counters`, summed over lights.
+fn add_method_counters(methods: &[Box<dyn LightShadowing>], counters: &mut BTreeMap<String, u64>) {
+    for m in methods {
+        for (name, value) in m.counters() {
+            *counters.entry(name.to_string()).or_insert(0) += value;
         }
     }
-    if !lit.is_empty() && lit.iter().all(|&l| l == 0) {
-        warnings.push(format!(
-            "the camera sees nothing lit: none of {visible} visible point(s) receives light (the image is black)"
-        ));
-    }
-    if scene.stats.imprecise_triangles > 0 {
-        // The camera is the render-space origin: |p| is the distance from it.
-        let (mut far, mut imprecise) = (0.0f64, 0u64);
-        for hit in hits.iter().flatten() {
-            let d = hit.point.p.as_dvec3().length();
-            far = far.max(d);
-            let t = &scene.triangles[hit.triangle as usize];
-            let size = [t.v1 - t.v0, t.v2 - t.v1, t.v0 - t.v2].iter().map(|e| e.length()).fold(0.0, f32::max);
-            imprecise += u64::from(f32_spacing(d) > size as f64 / SHAPE_PRECISION);
-        }
-        warnings.push(format!(
-            "the visible part lies within {far:.3e} m of the camera, where f32 positions are spaced {:.3e} m; \
-             {imprecise} of {visible} visible point(s) lie on triangles f32 cannot keep precise",
-            f32_spacing(far)
-        ));
-    }
-    warnings
 }
 
-/// The primary pass: the closest hit (or none) of every sample of every pixel, at
-/// `(y * width + x) * spp + s`.
+/// The primary pass over `rows`: the closest hit (or none) of every sample of every pixel,
+/// at `((y - rows.start) * width + x) * spp + s`.
 fn primary_hits(
     scene: &Scene,
     settings: &RenderSettings,
+    rows: &Range<u32>,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Vec<Option<SurfaceHit>> {
     let RenderSettings { width, height, spp, seed, .. } = *settings;
-    let (w, h, spp_us) = (width as usize, height as usize, spp as usize);
-    let mut hits: Vec<Option<SurfaceHit>> = vec![None; w * h * spp_us];
+    let (w, spp_us) = (width as usize, spp as usize);
+    let mut hits: Vec<Option<SurfaceHit>> = vec![None; w * rows.len() * spp_us];
     let (sx, sy) = strata(spp);
-    hits.par_chunks_mut(w * spp_us).enumerate().for_each(|(y, row)| {
+    hits.par_chunks_mut(w * spp_us).enumerate().for_each(|(i, row)| {
+        let y = rows.start as usize + i;
         for x in 0..w {
             let pixel_index = (y * w + x) as u64;
             let mut rng = Rng::new(stream_seed(&[seed, pixel_index, TAG_PRIMARY]));
@@ -257,6 +263,7 @@ fn primary_hits(
 
 /// The first vertex after the primary hit of each pixel's first sample, as
 /// [`crate::integrator::path::indirect`] will find it (the same random stream).
+/// `hits` are the whole frame's.
 fn first_bounces(scene: &Scene, hits: &[Option<SurfaceHit>], settings: &RenderSettings) -> Vec<ShadingPoint> {
     let RenderSettings { width, spp, seed, .. } = *settings;
     let (w, spp) = (width as usize, spp as usize);
@@ -340,18 +347,20 @@ struct Tally {
     vertices: Vec<VertexQueries>,
 }
 
-/// The shading pass: irradiance times visibility at every primary hit, from every light,
-/// averaged over each pixel's samples. Bands of `ROW_BAND` rows, each a `rows` span;
-/// `progress` hears of every band's rows.
+/// The shading pass: irradiance times visibility at every primary hit (`hits`: those of the
+/// rows from `first_row` on), from every light, averaged over each pixel's samples. Bands of
+/// `ROW_BAND` rows, each a `rows` span; `progress` hears of every band's rows.
 fn shade(
     scene: &Scene,
     methods: &[Box<dyn LightShadowing>],
     hits: &[Option<SurfaceHit>],
+    first_row: usize,
     settings: &RenderSettings,
     progress: &(dyn Fn(Progress) + Sync),
 ) -> Shaded {
-    let RenderSettings { width, height, profile, .. } = *settings;
-    let (w, h) = (width as usize, height as usize);
+    let RenderSettings { width, spp, profile, .. } = *settings;
+    let (w, spp) = (width as usize, spp as usize);
+    let h = hits.len() / (w * spp);
     let lights = scene.lights.len();
     let mut radiance = vec![Vec3::ZERO; w * h];
     let mut visibility = vec![0.0f32; w * h * lights];
@@ -366,7 +375,7 @@ fn shade(
         .zip(cost_chunks.into_par_iter())
         .enumerate()
         .map(|(band, ((rad, vis), cost))| {
-            let y0 = band * ROW_BAND;
+            let y0 = first_row + band * ROW_BAND;
             let rows = rad.len() / w;
             let _span = tracing::info_span!("rows", y0, y1 = y0 + rows).entered();
             let mut tally = Tally {
@@ -380,7 +389,9 @@ fn shade(
                 let vis_px = &mut vis[i * lights..(i + 1) * lights];
                 let (t0, w0) =
                     if profile { (Some(Instant::now()), Work::now()) } else { (None, Work::default()) };
-                rad[i] = shade_pixel(scene, methods, hits, settings, [x, y], vis_px, &mut tally);
+                let pixel = (y - first_row) * w + x;
+                let pixel_hits = &hits[pixel * spp..(pixel + 1) * spp];
+                rad[i] = shade_pixel(scene, methods, pixel_hits, settings, [x, y], vis_px, &mut tally);
                 if let Some(t0) = t0 {
                     cost[i] = PixelCost { time_s: t0.elapsed().as_secs_f32(), work: Work::now().since(w0) };
                 }
@@ -407,8 +418,8 @@ fn shade(
     }
 }
 
-/// One pixel's radiance (the mean over its samples), its per-light visibility into `vis_px`
-/// (-1 where no sample hits), its points and queries added to `tally`.
+/// One pixel's radiance (the mean over its samples' `hits`), its per-light visibility into
+/// `vis_px` (-1 where no sample hits), its points and queries added to `tally`.
 fn shade_pixel(
     scene: &Scene,
     methods: &[Box<dyn LightShadowing>],
@@ -419,16 +430,15 @@ fn shade_pixel(
     tally: &mut Tally,
 ) -> Vec3 {
     let RenderSettings { width, spp, seed, profile, max_depth, .. } = *settings;
-    let (w, spp_us) = (width as usize, spp as usize);
-    let pixel_index = (y * w + x) as u64;
+    let pixel_index = (y * width as usize + x) as u64;
     let ctx = PathContext { scene, methods, max_depth, profile };
     // The primary hits' direct light, summed as the direct-light renderer sums it (so
     // max_depth = 2 gives its bytes), and the paths' indirect light beside it.
     let (mut sum, mut indirect) = (Vec3::ZERO, Vec3::ZERO);
     let mut hit_count = 0u32;
     vis_px.fill(0.0);
-    for s in 0..spp_us {
-        let Some(hit) = &hits[(y * w + x) * spp_us + s] else { continue };
+    for (s, hit) in hits.iter().enumerate() {
+        let Some(hit) = hit else { continue };
         hit_count += 1;
         tally.points += 1;
         let albedo = scene.albedo(hit);

@@ -1,0 +1,308 @@
+//! `penumbra merge --out PATH.png TILE.json...`: the tiles of `render --tile` ([`crate::tile`])
+//! assembled into the files the single render writes, the same bytes (the report's timings
+//! aside). Every tile is read and checked before anything is staged, and the outputs are
+//! committed together: a bad set of tiles writes nothing.
+
+use crate::report::{ProfileTotals, RunReport, TileInfo, TileRun, Timings};
+use crate::{CliError, Pixels, stage_images, stage_profile};
+use glam::Vec3;
+use renderer::util::output::StagedFiles;
+use renderer::util::profile::{PixelCost, Work};
+use renderer::{FrameTally, SceneError};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// `penumbra merge` options.
+#[derive(Debug, Clone, clap::Args)]
+pub struct MergeArgs {
+    /// Output PNG; the EXR, the JSON report and the AOVs the tiles carry go beside it.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Every tile's report (PATH.json of `render --tile K/N --out PATH.png`), in any order.
+    #[arg(required = true, value_name = "TILE.json")]
+    pub tiles: Vec<PathBuf>,
+    /// No summary on stdout. Warnings and errors still go to stderr.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// One tile: its report's path, the report, and its `tile` section.
+struct Tile {
+    json: PathBuf,
+    report: RunReport,
+    info: TileInfo,
+}
+
+/// The frame's pixels, assembled from its tiles.
+struct Assembled {
+    radiance: Vec<Vec3>,
+    visibility: Vec<Vec<f32>>,
+    /// With `--profile`: each pixel's cost, and whether its primary rays all missed.
+    costs: Option<(Vec<PixelCost>, Vec<bool>)>,
+}
+
+/// Merges `args.tiles` into `args.out` and its siblings; returns the merged report.
+pub fn run_merge(args: &MergeArgs) -> Result<RunReport, CliError> {
+    let t0 = std::time::Instant::now();
+    let png = &args.out;
+    if png.extension().and_then(|e| e.to_str()) != Some("png") {
+        return Err(SceneError::new(png, "--out", "must name a .png file"));
+    }
+    renderer::util::output::check_writable_folder(png.parent().unwrap_or(Path::new("")))
+        .map_err(|e| SceneError::new(png, "--out", e))?;
+    let mut tiles = args.tiles.iter().map(|p| read_tile(p)).collect::<Result<Vec<_>, _>>()?;
+    check_tiles(&tiles)?;
+    tiles.sort_by_key(|t| t.info.index);
+    let json_path = png.with_extension("json");
+    if let Some(t) = tiles.iter().find(|t| same_file(&t.json, &json_path)) {
+        return Err(SceneError::new(
+            png,
+            "--out",
+            format!("would overwrite the tile report {}", t.json.display()),
+        ));
+    }
+    let pixels = assemble(&tiles)?;
+
+    let first = &tiles[0];
+    let (width, height) = (first.report.width, first.report.height);
+    let mut staged = StagedFiles::default();
+    let px = Pixels { width, height, radiance: &pixels.radiance, visibility: &pixels.visibility };
+    let mut outputs = stage_images(png, &px, first.info.aov, &mut staged)?;
+    if let Some((costs, missed)) = &pixels.costs {
+        outputs.extend(stage_profile(png, [width, height], costs, missed, &mut staged)?);
+    }
+    outputs.push(json_path.clone());
+    let report = merged_report(&tiles, &outputs, t0.elapsed().as_secs_f64());
+    let json = serde_json::to_vec_pretty(&report).expect("the report serialises");
+    let io = |e: String| SceneError::new(png, "--out", e);
+    staged.bytes(&json_path, &json).map_err(io)?;
+    staged.commit().map_err(io)?;
+    Ok(report)
+}
+
+fn same_file(a: &Path, b: &Path) -> bool {
+    a == b || matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y)
+}
+
+/// Reads a tile's report.
+fn read_tile(json: &Path) -> Result<Tile, CliError> {
+    let bytes = std::fs::read(json).map_err(|e| SceneError::new(json, "", format!("cannot read: {e}")))?;
+    let report: RunReport = serde_json::from_slice(&bytes)
+        .map_err(|e| SceneError::new(json, "", format!("not a tile report (truncated?): {e}")))?;
+    let Some(info) = report.tile.clone() else {
+        return Err(SceneError::new(
+            json,
+            "tile",
+            "a whole render's report, not a tile's (render tiles with --tile K/N)",
+        ));
+    };
+    Ok(Tile { json: json.to_path_buf(), report, info })
+}
+
+/// Every tile of one frame, each once: the same scene and settings (the fields a user can
+/// read first, then the fingerprint of the files behind them), no tile missing or given twice.
+fn check_tiles(tiles: &[Tile]) -> Result<(), CliError> {
+    let first = &tiles[0];
+    let fields = |t: &Tile| {
+        let r = &t.report;
+        [
+            ("scene", r.scene.clone()),
+            ("method", r.method.clone()),
+            ("samples", r.samples.to_string()),
+            ("width", r.width.to_string()),
+            ("height", r.height.to_string()),
+            ("spp", r.spp.to_string()),
+            ("max_depth", r.max_depth.to_string()),
+            ("seed", r.seed.to_string()),
+            ("tile.count", t.info.count.to_string()),
+            ("tile.aov", t.info.aov.to_string()),
+            ("tile.profile", t.info.profile.to_string()),
+            ("tile.fingerprint", t.info.fingerprint.clone()),
+        ]
+    };
+    let expected = fields(first);
+    let n = first.info.count;
+    let mut seen: Vec<Option<&Path>> = vec![None; n as usize];
+    for t in tiles {
+        for ((key, want), (_, got)) in expected.iter().zip(fields(t)) {
+            if *want != got {
+                let why = if *key == "tile.fingerprint" {
+                    "the scene's files or the method's settings differ".to_string()
+                } else {
+                    format!("{got}, but {want} in {}", first.json.display())
+                };
+                return Err(SceneError::new(&t.json, *key, format!("a tile of another render: {why}")));
+            }
+        }
+        let k = t.info.index;
+        let rows = crate::tile::TileSpec { index: k, count: n }.rows(t.report.height);
+        if k >= n || t.info.rows != [rows.start, rows.end] {
+            return Err(SceneError::new(&t.json, "tile.rows", format!("not tile {k} of {n}'s rows")));
+        }
+        if let Some(other) = seen[k as usize] {
+            return Err(SceneError::new(
+                &t.json,
+                "tile.index",
+                format!("tile {k} of {n} is given twice (also {})", other.display()),
+            ));
+        }
+        seen[k as usize] = Some(&t.json);
+        if t.info.prepare_counters != first.info.prepare_counters {
+            return Err(SceneError::new(
+                &t.json,
+                "tile.prepare_counters",
+                format!("its shadow method prepared differently from {}'s", first.json.display()),
+            ));
+        }
+    }
+    let missing: Vec<String> =
+        seen.iter().enumerate().filter(|(_, s)| s.is_none()).map(|(k, _)| k.to_string()).collect();
+    if !missing.is_empty() {
+        let list = if missing.len() > 8 {
+            format!("{} and {} more", missing[..8].join(", "), missing.len() - 8)
+        } else {
+            missing.join(", ")
+        };
+        return Err(SceneError::new(
+            &first.json,
+            "tile.index",
+            format!("tile(s) {list} of {n} missing: give every tile's report"),
+        ));
+    }
+    Ok(())
+}
+
+/// Reads every tile's pixels (sorted by index) into the frame's buffers.
+fn assemble(tiles: &[Tile]) -> Result<Assembled, CliError> {
+    let (first, lights) = (&tiles[0], tiles[0].report.lights);
+    let pixels = first.report.width as usize * first.report.height as usize;
+    let mut out = Assembled {
+        radiance: Vec::with_capacity(pixels),
+        visibility: vec![Vec::with_capacity(pixels); if first.info.aov { lights } else { 0 }],
+        costs: first.info.profile.then(|| (Vec::with_capacity(pixels), Vec::with_capacity(pixels))),
+    };
+    for t in tiles {
+        // Named as `render --tile` names them beside its report (PATH.png's siblings).
+        let base = &t.json;
+        let size = (t.report.width as usize, (t.info.rows[1] - t.info.rows[0]) as usize);
+        let mut rgb = read_channels(&base.with_extension("exr"), size, &["R", "G", "B"])?
+            .into_iter()
+            .map(Channel::f32s);
+        let (r, g, b) = (rgb.next().unwrap(), rgb.next().unwrap(), rgb.next().unwrap());
+        out.radiance.extend(r.iter().zip(&g).zip(&b).map(|((&r, &g), &b)| Vec3::new(r, g, b)));
+        for (k, vis) in out.visibility.iter_mut().enumerate() {
+            let path = base.with_extension(format!("visibility.{k}.exr"));
+            vis.extend(read_channels(&path, size, &["R"])?.remove(0).f32s());
+        }
+        if let Some((costs, missed)) = &mut out.costs {
+            let path = base.with_extension("cost.exr");
+            let mut c =
+                read_channels(&path, size, &["time.Y", "rays.Y", "shafts.Y", "lookups.Y", "missed.Y"])?;
+            let counts: Vec<Vec<u32>> = c[1..].iter().map(Channel::u32s).collect();
+            for (i, time_s) in c.swap_remove(0).f32s().into_iter().enumerate() {
+                let [rays, shafts, lookups] = [0, 1, 2].map(|j| counts[j][i] as u64);
+                costs.push(PixelCost { time_s, work: Work { rays, shafts, lookups, fallbacks: 0 } });
+                missed.push(counts[3][i] != 0);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// The named channels of `path`'s first layer, which must be `size` pixels.
+fn read_channels(path: &Path, size: (usize, usize), names: &[&str]) -> Result<Vec<Channel>, CliError> {
+    use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
+    let bad = |e: String| SceneError::new(path, "", e);
+    let image = read_all_flat_layers_from_file(path)
+        .map_err(|e| bad(format!("cannot read the tile's pixels: {e}")))?;
+    let layer = image.layer_data.first().ok_or_else(|| bad("no layer".into()))?;
+    if (layer.size.x(), layer.size.y()) != size {
+        let (w, h) = (layer.size.x(), layer.size.y());
+        return Err(bad(format!("{w}x{h} pixels, where the tile's report says {}x{}", size.0, size.1)));
+    }
+    names
+        .iter()
+        .map(|name| {
+            let channel = layer.channel_data.list.iter().find(|c| c.name.to_string() == *name);
+            match channel.map(|c| &c.sample_data) {
+                Some(FlatSamples::F32(v)) => Ok(Channel::F32(v.clone())),
+                Some(FlatSamples::U32(v)) => Ok(Channel::U32(v.clone())),
+                _ => Err(bad(format!("no f32 or u32 channel {name}"))),
+            }
+        })
+        .collect()
+}
+
+/// A channel's samples as the tiles write them: f32 values or u32 counts.
+enum Channel {
+    F32(Vec<f32>),
+    U32(Vec<u32>),
+}
+
+impl Channel {
+    fn f32s(self) -> Vec<f32> {
+        match self {
+            Channel::F32(v) => v,
+            Channel::U32(v) => v.into_iter().map(|n| n as f32).collect(),
+        }
+    }
+    fn u32s(&self) -> Vec<u32> {
+        match self {
+            Channel::F32(v) => v.iter().map(|&x| x as u32).collect(),
+            Channel::U32(v) => v.clone(),
+        }
+    }
+}
+
+/// The merged report: the first tile's, with the counters and profile totals summed (what
+/// `prepare` counted, once), the frame's warnings from the summed tallies, the timings
+/// summed and each tile's kept.
+fn merged_report(tiles: &[Tile], outputs: &[PathBuf], merge_s: f64) -> RunReport {
+    let first = &tiles[0];
+    let prepare = &first.info.prepare_counters;
+    let mut counters: BTreeMap<String, u64> = prepare.clone();
+    let mut tally = FrameTally::default();
+    let mut timings = Timings::default();
+    let mut profile: Option<ProfileTotals> = None;
+    for t in tiles {
+        for (k, v) in &t.report.counters {
+            *counters.entry(k.clone()).or_insert(0) += v.saturating_sub(prepare.get(k).copied().unwrap_or(0));
+        }
+        tally.add(&t.info.tally);
+        timings.add(&t.report.timings_s);
+        if let Some(p) = &t.report.profile {
+            profile.get_or_insert_with(ProfileTotals::default).add(p);
+        }
+    }
+    // The merge's own time: reading the tiles and writing the frame.
+    timings.write += merge_s;
+    timings.total += merge_s;
+    let warnings = first
+        .info
+        .scene_warnings
+        .iter()
+        .cloned()
+        .chain(tally.warnings())
+        .chain(first.info.method_warnings.iter().cloned())
+        .collect();
+    let runs = tiles
+        .iter()
+        .map(|t| TileRun {
+            index: t.info.index,
+            rows: t.info.rows,
+            threads: t.report.threads,
+            timings_s: t.report.timings_s.clone(),
+        })
+        .collect();
+    RunReport {
+        threads: tiles.iter().map(|t| t.report.threads).max().unwrap_or(1),
+        timings_s: timings,
+        profile,
+        counters,
+        outputs: outputs.iter().map(|p| p.display().to_string()).collect(),
+        warnings,
+        tile: None,
+        tiles: Some(runs),
+        ..first.report.clone()
+    }
+}
