@@ -141,3 +141,24 @@ fn a_zero_budget_refuses_the_map_first() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A light that faces away from everything reaches no receiver: its masks once sat at an
+/// infinite depth and marched without end (24 GB at 40x32 pixels, then the OOM killer).
+/// Now the frame renders under a 64 MiB budget, black where only that light would shine, and
+/// warns of the light.
+#[test]
+fn a_light_facing_away_from_the_scene_costs_edge_table_almost_nothing() {
+    let dir = temp_dir("facing-away");
+    let away = SCENE.replace("v = [0.0, 0.0, 0.5]\nradiance", "v = [0.0, 0.0, -0.5]\nradiance");
+    assert_ne!(away, SCENE);
+    let o = render(&dir, &away, "64", &[]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("light 0 reaches no visible point"), "{stderr}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("o.json")).unwrap()).unwrap();
+    let bytes = report["counters"]["mask_bytes"].as_u64().unwrap()
+        + report["counters"]["depth_map_bytes"].as_u64().unwrap();
+    assert!(bytes < 4 << 20, "{bytes} bytes of masks and depth map for a light that reaches nothing");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -10,7 +10,8 @@ use renderer::ShadingPoint;
 
 /// Depth levels at quantiles of the receivers' log depths: level k at the (k + 1/2) / `gz`
 /// quantile of the points the light reaches; and the deepest such point's depth. With no
-/// such point, every level (and the depth) is twice the map's nearest depth.
+/// such point, every level (and the depth) is twice the map's nearest depth (1 when nothing
+/// is in front of the light).
 pub(super) fn depth_levels(map: &DepthMap, visible: &[ShadingPoint], gz: u32) -> (Vec<f32>, f32) {
     // Receivers cluster (a floor facing the light has one depth), and a mask serves a point
     // exactly only at its own depth: the ray footprints of a point at depth z read through a
@@ -24,7 +25,10 @@ pub(super) fn depth_levels(map: &DepthMap, visible: &[ShadingPoint], gz: u32) ->
         .filter(|&z| z > map.z_min && z.is_finite())
         .map(f32::ln)
         .collect();
-    let fallback_z = map.z_min.max(1e-6) * 2.0;
+    // Finite even where nothing at all is in front of the light (a light facing away from
+    // the scene: the exact map's nearest depth is then infinite, and masks built at an
+    // infinite depth marched without end, 24 GB at 40x32 pixels before this).
+    let fallback_z = if map.z_min.is_finite() { map.z_min.max(1e-6) * 2.0 } else { 1.0 };
     let z_hi = log_depths.iter().copied().reduce(f32::max).map_or(fallback_z, f32::exp);
     // Quantiles by selection, not a sort (a few ms at 300k points; the value at a rank is
     // the same whichever way it is found).
