@@ -138,21 +138,7 @@ pub fn render_rows(
     let primary_time = t_primary.elapsed();
 
     let t_gather = Instant::now();
-    let visible = if gather {
-        progress(Progress::Phase { name: "gathering visible points", rows: 0 });
-        tracing::info_span!("visible_points").in_scope(|| {
-            let mut v = visible_points(&hits);
-            // Paths query points the camera does not see: the first bounce of each pixel's
-            // first sample (exactly the vertex its path will query), so depth maps cover
-            // them too.
-            if settings.max_depth > 2 {
-                v.extend(first_bounces(scene, &hits, settings));
-            }
-            v
-        })
-    } else {
-        Vec::new()
-    };
+    let visible = if gather { gather_visible(scene, &hits, settings, progress) } else { Vec::new() };
     let visible_points = t_gather.elapsed();
 
     let t_prepare = Instant::now();
@@ -172,12 +158,7 @@ pub fn render_rows(
     let shaded = tracing::info_span!("shading")
         .in_scope(|| shade(scene, methods, band_hits, rows.start as usize, settings, progress));
 
-    let mut counters = BTreeMap::from([
-        ("shading_points".to_string(), shaded.shading_points),
-        ("shadow_queries".to_string(), shaded.shadow_queries),
-        ("visible_points".to_string(), prepare_counters["visible_points"]),
-    ]);
-    add_method_counters(methods, &mut counters);
+    let counters = frame_counters(methods, &shaded, prepare_counters["visible_points"], settings);
     let (pixels, lights) = (width as usize * rows.len(), scene.lights.len());
     let visibility =
         (0..lights).map(|k| (0..pixels).map(|i| shaded.visibility[i * lights + k]).collect()).collect();
@@ -191,14 +172,6 @@ pub fn render_rows(
         .collect();
     let warnings = tally.warnings().into_iter().chain(method_warnings.iter().cloned()).collect();
     let render = primary_time + t_shade.elapsed();
-    if settings.max_depth > 2 {
-        for (i, v) in shaded.vertex_queries.iter().enumerate() {
-            counters.insert(format!("shadow_queries_vertex_{}", i + 1), v.queries);
-            counters.insert(format!("shadow_rays_vertex_{}", i + 1), v.rays);
-            counters.insert(format!("shadow_queries_without_rays_vertex_{}", i + 1), v.without_rays);
-            counters.insert(format!("shadow_fallbacks_vertex_{}", i + 1), v.fallbacks);
-        }
-    }
     Ok(Frame {
         width,
         height,
@@ -216,6 +189,51 @@ pub fn render_rows(
         method_warnings,
         warnings,
     })
+}
+
+/// The visible points every method's `prepare` reads, from the whole frame's `hits`.
+fn gather_visible(
+    scene: &Scene,
+    hits: &[Option<SurfaceHit>],
+    settings: &RenderSettings,
+    progress: &(dyn Fn(Progress) + Sync),
+) -> Vec<ShadingPoint> {
+    progress(Progress::Phase { name: "gathering visible points", rows: 0 });
+    tracing::info_span!("visible_points").in_scope(|| {
+        let mut v = visible_points(hits);
+        // Paths query points the camera does not see: the first bounce of each pixel's
+        // first sample (exactly the vertex its path will query), so depth maps cover them
+        // too.
+        if settings.max_depth > 2 {
+            v.extend(first_bounces(scene, hits, settings));
+        }
+        v
+    })
+}
+
+/// The frame's counters: the shading pass's, the points gathered, every method's, and with
+/// paths the queries per vertex.
+fn frame_counters(
+    methods: &[Box<dyn LightShadowing>],
+    shaded: &Shaded,
+    gathered: u64,
+    settings: &RenderSettings,
+) -> BTreeMap<String, u64> {
+    let mut counters = BTreeMap::from([
+        ("shading_points".to_string(), shaded.shading_points),
+        ("shadow_queries".to_string(), shaded.shadow_queries),
+        ("visible_points".to_string(), gathered),
+    ]);
+    add_method_counters(methods, &mut counters);
+    if settings.max_depth > 2 {
+        for (i, v) in shaded.vertex_queries.iter().enumerate() {
+            counters.insert(format!("shadow_queries_vertex_{}", i + 1), v.queries);
+            counters.insert(format!("shadow_rays_vertex_{}", i + 1), v.rays);
+            counters.insert(format!("shadow_queries_without_rays_vertex_{}", i + 1), v.without_rays);
+            counters.insert(format!("shadow_fallbacks_vertex_{}", i + 1), v.fallbacks);
+        }
+    }
+    counters
 }
 
 /// Adds every light's method counters into `counters`, summed over lights.
