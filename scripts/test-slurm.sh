@@ -107,16 +107,42 @@ stop_pid() {
     gone_within "$pid" 5 || echo "slurm: $name (pid $pid) survived SIGKILL" >&2
 }
 
+# Runs a command in the background and waits for it, so a signal reaches our traps at once
+# (bash runs them only after a foreground command ends) and teardown can stop the command.
+child=""
+run() {
+    local rc=0
+    "$@" &
+    child=$!
+    wait "$child" || rc=$?
+    child=""
+    return "$rc"
+}
+
+# Live slurmstepd processes of this cluster (they inherit slurmd's SLURM_CONF).
+our_stepds() {
+    local p
+    for p in /proc/[0-9]*; do
+        [[ $(cat "$p/comm" 2>/dev/null) == slurmstepd ]] || continue
+        grep -qsaF "SLURM_CONF=$SLURM_CONF" "$p/environ" && echo "${p#/proc/}"
+    done
+    return 0
+}
+
 teardown() {
     local rc=$? t=$EPOCHREALTIME tries
     set +e
     trap - EXIT INT TERM HUP
     ((rc == 0)) || log_tails
+    if [[ -n $child ]]; then
+        kill -TERM "$child" 2>/dev/null
+        wait "$child" 2>/dev/null
+    fi
     if [[ -n $ctld_pid ]]; then
         scancel --user=root >/dev/null 2>&1
         # Job steps gone: slurmd removes their sockets from its spool folder.
         tries=100
-        while ((tries-- > 0)) && [[ -n $(find "$D/spool" -type s -name "${host}_*" 2>/dev/null) ]]; do
+        while ((tries-- > 0)) && [[ -n $(find "$D/spool" -type s -name "${host}_*" 2>/dev/null)$(our_stepds) ]]; do
             sleep 0.1
         done
         timeout 10 scontrol shutdown >/dev/null 2>&1
@@ -213,9 +239,9 @@ flags=(--width 160 --height 120 --aov)
 scene="$D/a scene/default.toml"
 mkdir -p "$D/a scene" "$D/direct"
 cp "$repo/scenes/default.toml" "$scene"
-timeout 120 "$repo/scripts/slurm-render.sh" --wait "$scene" 4 "$D/farm out/frame.png" "${flags[@]}" ||
+run timeout 120 "$repo/scripts/slurm-render.sh" --wait "$scene" 4 "$D/farm out/frame.png" "${flags[@]}" ||
     fail "slurm-render.sh --wait exited $?"
-"$PENUMBRA" render "$scene" --out "$D/direct/frame.png" --quiet "${flags[@]}" ||
+run "$PENUMBRA" render "$scene" --out "$D/direct/frame.png" --quiet "${flags[@]}" ||
     fail "the direct render failed"
 compared=0
 for f in "$D"/direct/frame.png "$D"/direct/frame.exr "$D"/direct/frame.visibility.*; do
@@ -237,7 +263,7 @@ exec "$PENUMBRA" "\$@"
 EOF
 chmod +x "$D/flaky"
 set +e
-PENUMBRA=$D/flaky timeout 120 "$repo/scripts/slurm-render.sh" --wait "$scene" 4 "$D/fail/frame.png" \
+PENUMBRA=$D/flaky run timeout 120 "$repo/scripts/slurm-render.sh" --wait "$scene" 4 "$D/fail/frame.png" \
     "${flags[@]}" >"$D/fail.out" 2>&1
 rc=$?
 set -e
