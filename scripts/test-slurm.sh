@@ -4,8 +4,8 @@
 # tiles with scripts/slurm-render.sh --wait; the PNG, EXR and AOVs must equal a direct
 # `penumbra render` byte for byte. Then a tile that fails must fail the script and the merge
 # must never run. Installs slurm-wlm and munge with apt if missing (root only); prints one
-# SKIPPED line where it cannot. The binary: $PENUMBRA, else target/release/penumbra (built
-# if absent).
+# SKIPPED line where it cannot. The binary: $PENUMBRA, else target/release/penumbra (or
+# $CARGO_TARGET_DIR/release/penumbra), built if absent.
 set -euo pipefail
 repo=$(cd "$(dirname -- "${BASH_SOURCE[0]}")/.." && pwd -P)
 t_start=$EPOCHREALTIME
@@ -60,7 +60,10 @@ for port in 6817 6818; do
     fi
 done
 
-penumbra=${PENUMBRA:-$repo/target/release/penumbra}
+# Where cargo puts it: CARGO_TARGET_DIR (relative to the repository, where we run cargo) if set.
+target=${CARGO_TARGET_DIR:-target}
+[[ $target == /* ]] || target=$repo/$target
+penumbra=${PENUMBRA:-$target/release/penumbra}
 if [[ ! -x $penumbra ]]; then
     [[ -z ${PENUMBRA:-} ]] || fail "PENUMBRA=$PENUMBRA is not an executable"
     echo "slurm: $penumbra missing; cargo build --release"
