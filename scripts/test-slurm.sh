@@ -238,18 +238,27 @@ echo "slurm: cluster up in $start_s s ($host, $cpus CPUs)"
 # --- 4 tiles + merge against a direct render -------------------------------------------
 t=$EPOCHREALTIME
 flags=(--width 160 --height 120 --aov)
-# Spaces in the paths: the jobs' /bin/sh must get them quoted.
+# Spaces and a quote in the paths: the jobs' /bin/sh must get them quoted.
 scene="$D/a scene/default.toml"
+farm="$D/farm out's"
 mkdir -p "$D/a scene" "$D/direct"
 cp "$repo/scenes/default.toml" "$scene"
-run timeout 120 "$repo/scripts/slurm-render.sh" --wait "$scene" 4 "$D/farm out/frame.png" "${flags[@]}" ||
-    fail "slurm-render.sh --wait exited $?"
+# sbatch options pass through to both jobs.
+PENUMBRA_SBATCH_ARGS="--time=10 --cpus-per-task=1" \
+    run timeout 120 "$repo/scripts/slurm-render.sh" --wait "$scene" 4 "$farm/frame.png" "${flags[@]}" \
+    >"$D/farm.out" || fail "slurm-render.sh --wait exited $?"
+cat "$D/farm.out"
+while read -r what _ id _; do
+    [[ $what == tiles: || $what == merge: ]] || continue
+    scontrol -o show job "$id" | grep -q 'TimeLimit=00:10:00' ||
+        fail "job $id did not get PENUMBRA_SBATCH_ARGS's --time=10"
+done <"$D/farm.out"
 run "$PENUMBRA" render "$scene" --out "$D/direct/frame.png" --quiet "${flags[@]}" ||
     fail "the direct render failed"
 compared=0
 for f in "$D"/direct/frame.png "$D"/direct/frame.exr "$D"/direct/frame.visibility.*; do
     [[ -e $f ]] || fail "the direct render wrote no $(basename "$f")"
-    cmp "$f" "$D/farm out/$(basename "$f")" || fail "$(basename "$f") differs between the farm and a direct render"
+    cmp "$f" "$farm/$(basename "$f")" || fail "$(basename "$f") differs between the farm and a direct render"
     compared=$((compared + 1))
 done
 ((compared >= 4)) || fail "only $compared files compared (no --aov outputs?)"
