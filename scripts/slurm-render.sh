@@ -129,17 +129,29 @@ field() {
 }
 
 # Polls rather than `sbatch --wait` so the ids above print at once and a forgotten job
-# (past MinJobAge) still ends the wait.
-state="" exit_code=""
+# (past MinJobAge) still ends the wait. Every 0.5 s for 10 s, then every 5 s: a long queue
+# should not hammer the controller.
+state="" exit_code="" polls=0 errors=0
 while :; do
-    line=$(scontrol -o show job "$merge_id" 2>/dev/null) || {
-        state=PURGED
-        break
-    }
+    if ! line=$(scontrol -o show job "$merge_id" 2>&1); then
+        if [[ $line == *"Invalid job id"* ]]; then
+            state=PURGED
+            break
+        fi
+        # A busy or restarting controller: try again, for a while.
+        errors=$((errors + 1))
+        ((errors < 60)) || die "scontrol keeps failing ($line); the jobs go on: $array_id, $merge_id"
+        sleep 5
+        continue
+    fi
+    errors=0
     state=$(field JobState "$line")
     exit_code=$(field ExitCode "$line")
     case $state in
-    PENDING | RUNNING | CONFIGURING | COMPLETING | SUSPENDED | REQUEUED* | RESIZING | RESV_DEL_HOLD | STAGE_OUT | SIGNALING) sleep 0.5 ;;
+    PENDING | RUNNING | CONFIGURING | COMPLETING | SUSPENDED | REQUEUED* | RESIZING | RESV_DEL_HOLD | STAGE_OUT | SIGNALING)
+        polls=$((polls + 1))
+        if ((polls < 20)); then sleep 0.5; else sleep 5; fi
+        ;;
     *) break ;;
     esac
 done
@@ -182,7 +194,7 @@ if ((!failed)); then
 fi
 scancel "$array_id" 2>/dev/null || true
 if ((failed)); then
-    echo "slurm-render: the merge (job $merge_id) did not run: $state; cancelled the remaining tiles" >&2
+    echo "slurm-render: the merge (job $merge_id) did not run: $state; cancelled any tiles still queued or running" >&2
 else
     echo "slurm-render: the merge (job $merge_id) ended $state (exit $exit_code), log $tiledir/$stem.merge.log" >&2
 fi
