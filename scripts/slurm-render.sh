@@ -170,20 +170,22 @@ fi
 status=${exit_code%%:*}
 [[ $status =~ ^[0-9]+$ && $status != 0 ]] || status=1
 # Which tiles failed: the array's tasks, else (tasks forgotten) the missing tile reports.
-failed=0
+failed=0 why=()
 tasks=$(scontrol -o show job "$array_id" 2>/dev/null || true)
 while IFS= read -r line; do
-    [[ -n $line ]] || continue
     task=$(field ArrayTaskId "$line")
+    [[ $task =~ ^[0-9]+$ ]] || continue
     tstate=$(field JobState "$line")
     case $tstate in
     COMPLETED | PENDING | RUNNING | CONFIGURING | COMPLETING) ;;
     *)
-        echo "slurm-render: tile $task: $tstate (exit $(field ExitCode "$line")), log $tile_base$task.log" >&2
+        why[task]="slurm-render: tile $task: $tstate (exit $(field ExitCode "$line")), log $tile_base$task.log"
         failed=1
         ;;
     esac
 done <<<"$tasks"
+# scontrol lists the tasks last first; an indexed array prints them in tile order.
+((!failed)) || printf '%s\n' "${why[@]}" >&2
 if ((!failed)); then
     for ((k = 0; k < tiles; k++)); do
         if [[ ! -f $tile_base$k.json ]]; then
