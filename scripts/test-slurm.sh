@@ -55,9 +55,14 @@ port_busy() {
         /proc/net/tcp /proc/net/tcp6 2>/dev/null
 }
 for port in 6817 6818; do
-    if port_busy "$port"; then
-        fail "port $port is in use (another Slurm? a test run killed with SIGKILL leaves its daemons: pgrep -a 'slurm|munge')"
-    fi
+    port_busy "$port" || continue
+    # A run killed with SIGKILL leaves its daemons and folder: say how to stop them.
+    for old in /tmp/penumbra-slurm.*/slurm.conf; do
+        [[ -f $old ]] || continue
+        old=${old%/slurm.conf}
+        fail "port $port is in use, probably by the cluster of a killed test run: SLURM_CONF=$old/slurm.conf scontrol shutdown; kill \$(cat $old/munge/munged.pid); rm -r $old"
+    done
+    fail "port $port is in use (another Slurm? see pgrep -a 'slurm|munge')"
 done
 
 # Where cargo puts it: CARGO_TARGET_DIR (relative to the repository, where we run cargo) if set.
@@ -250,8 +255,10 @@ PENUMBRA_SBATCH_ARGS="--time=10 --cpus-per-task=1" \
 cat "$D/farm.out"
 while read -r what _ id _; do
     [[ $what == tiles: || $what == merge: ]] || continue
-    scontrol -o show job "$id" | grep -q 'TimeLimit=00:10:00' ||
-        fail "job $id did not get PENUMBRA_SBATCH_ARGS's --time=10"
+    # Not `| grep -q`: grep quits at the first of the array's lines, and pipefail then
+    # sees scontrol's SIGPIPE.
+    job=$(scontrol -o show job "$id")
+    [[ $job == *TimeLimit=00:10:00* ]] || fail "job $id did not get PENUMBRA_SBATCH_ARGS's --time=10"
 done <"$D/farm.out"
 run "$PENUMBRA" render "$scene" --out "$D/direct/frame.png" --quiet "${flags[@]}" ||
     fail "the direct render failed"
