@@ -121,8 +121,9 @@ trap 'echo "slurm-render: stopped waiting; the jobs go on (scancel $array_id $me
 
 # A job's KEY=VALUE from `scontrol -o show job` (one line per job or array task).
 field() {
-    local w
-    for w in $2; do
+    local w words
+    read -r -a words <<<"$2" # split, but no globbing of the job's fields
+    for w in "${words[@]}"; do
         [[ $w == "$1"=* ]] && printf '%s\n' "${w#*=}" && return
     done
     return 0
@@ -161,8 +162,8 @@ if [[ $state == COMPLETED ]]; then
     echo "merged: $out"
     exit 0
 fi
-if [[ $state == PURGED && -f ${out%.png}.json && -f $out ]]; then
-    # The controller forgot the job; the merge's outputs say it ran.
+if [[ $state == PURGED && ${out%.png}.json -nt ${tile_base}0.json ]]; then
+    # The controller forgot the job; a report newer than this run's tiles says it ran.
     echo "merged: $out"
     exit 0
 fi
