@@ -103,28 +103,22 @@ fn read_tile(json: &Path) -> Result<Tile, CliError> {
 /// read first, then the fingerprint of the files behind them), no tile missing or given twice.
 fn check_tiles(tiles: &[Tile]) -> Result<(), CliError> {
     let first = &tiles[0];
-    let fields = |t: &Tile| {
-        let r = &t.report;
-        [
-            ("scene", r.scene.clone()),
-            ("method", r.method.clone()),
-            ("samples", r.samples.to_string()),
-            ("width", r.width.to_string()),
-            ("height", r.height.to_string()),
-            ("spp", r.spp.to_string()),
-            ("max_depth", r.max_depth.to_string()),
-            ("seed", r.seed.to_string()),
-            ("tile.count", t.info.count.to_string()),
-            ("tile.aov", t.info.aov.to_string()),
-            ("tile.profile", t.info.profile.to_string()),
-            ("tile.fingerprint", t.info.fingerprint.clone()),
-        ]
-    };
-    let expected = fields(first);
+    let expected = identity(first);
     let n = first.info.count;
+    // Hand-edited or corrupt numbers are errors, not allocations or divisions by zero.
+    let side = renderer::load::config::MAX_IMAGE_SIDE;
+    for (key, v, max) in [
+        ("width", first.report.width, side),
+        ("height", first.report.height, side),
+        ("tile.count", n, first.report.height.min(crate::tile::MAX_TILES)),
+    ] {
+        if v == 0 || v > max {
+            return Err(SceneError::new(&first.json, key, format!("must be in 1..={max}, got {v}")));
+        }
+    }
     let mut seen: Vec<Option<&Path>> = vec![None; n as usize];
     for t in tiles {
-        for ((key, want), (_, got)) in expected.iter().zip(fields(t)) {
+        for ((key, want), (_, got)) in expected.iter().zip(identity(t)) {
             if *want != got {
                 let why = if *key == "tile.fingerprint" {
                     "the scene's files or the method's settings differ".to_string()
@@ -135,8 +129,11 @@ fn check_tiles(tiles: &[Tile]) -> Result<(), CliError> {
             }
         }
         let k = t.info.index;
+        if k >= n {
+            return Err(SceneError::new(&t.json, "tile.index", format!("{k} is not below tile.count = {n}")));
+        }
         let rows = crate::tile::TileSpec { index: k, count: n }.rows(t.report.height);
-        if k >= n || t.info.rows != [rows.start, rows.end] {
+        if t.info.rows != [rows.start, rows.end] {
             return Err(SceneError::new(&t.json, "tile.rows", format!("not tile {k} of {n}'s rows")));
         }
         if let Some(other) = seen[k as usize] {
@@ -172,13 +169,33 @@ fn check_tiles(tiles: &[Tile]) -> Result<(), CliError> {
     Ok(())
 }
 
+/// What two tiles of one frame share: the settings a user can read, then the fingerprint of
+/// the files behind them.
+fn identity(t: &Tile) -> [(&'static str, String); 12] {
+    let r = &t.report;
+    [
+        ("scene", r.scene.clone()),
+        ("method", r.method.clone()),
+        ("samples", r.samples.to_string()),
+        ("width", r.width.to_string()),
+        ("height", r.height.to_string()),
+        ("spp", r.spp.to_string()),
+        ("max_depth", r.max_depth.to_string()),
+        ("seed", r.seed.to_string()),
+        ("tile.count", t.info.count.to_string()),
+        ("tile.aov", t.info.aov.to_string()),
+        ("tile.profile", t.info.profile.to_string()),
+        ("tile.fingerprint", t.info.fingerprint.clone()),
+    ]
+}
+
 /// Reads every tile's pixels (sorted by index) into the frame's buffers.
 fn assemble(tiles: &[Tile]) -> Result<Assembled, CliError> {
     let (first, lights) = (&tiles[0], tiles[0].report.lights);
     let pixels = first.report.width as usize * first.report.height as usize;
     let mut out = Assembled {
         radiance: Vec::with_capacity(pixels),
-        visibility: vec![Vec::with_capacity(pixels); if first.info.aov { lights } else { 0 }],
+        visibility: Vec::new(),
         costs: first.info.profile.then(|| (Vec::with_capacity(pixels), Vec::with_capacity(pixels))),
     };
     for t in tiles {
@@ -190,9 +207,15 @@ fn assemble(tiles: &[Tile]) -> Result<Assembled, CliError> {
             .map(Channel::f32s);
         let (r, g, b) = (rgb.next().unwrap(), rgb.next().unwrap(), rgb.next().unwrap());
         out.radiance.extend(r.iter().zip(&g).zip(&b).map(|((&r, &g), &b)| Vec3::new(r, g, b)));
-        for (k, vis) in out.visibility.iter_mut().enumerate() {
+        // Each light's layer is allocated as its first file is read: a report that claims
+        // more lights than there are files fails at the first missing one.
+        for k in 0..if first.info.aov { lights } else { 0 } {
             let path = base.with_extension(format!("visibility.{k}.exr"));
-            vis.extend(read_channels(&path, size, &["R"])?.remove(0).f32s());
+            let layer = read_channels(&path, size, &["R"])?.remove(0).f32s();
+            if out.visibility.len() == k {
+                out.visibility.push(Vec::with_capacity(pixels));
+            }
+            out.visibility[k].extend(layer);
         }
         if let Some((costs, missed)) = &mut out.costs {
             let path = base.with_extension("cost.exr");

@@ -223,8 +223,19 @@ fn bad_merges_name_the_file_on_one_line_exit_2_and_write_nothing() {
     let cut_exr = dir.join("cutexr.tile-1.json");
     let whole =
         run_render(&args(&scene, "traced", 2, dir.join("whole.png"))).unwrap().png.with_extension("json");
+    // Hand-edited numbers: errors, not a division by zero or an index out of bounds.
+    let edited = |name: &str, from: &str, to: &str| {
+        let text = String::from_utf8(read(&t[0])).unwrap();
+        assert!(text.contains(from), "{from} in {text}");
+        let path = dir.join(name);
+        std::fs::write(&path, text.replace(from, to)).unwrap();
+        std::fs::copy(t[0].with_extension("exr"), path.with_extension("exr")).unwrap();
+        path
+    };
+    let zero = edited("zero.tile-0.json", "\"count\": 3", "\"count\": 0");
+    let beyond = edited("beyond.tile-0.json", "\"index\": 0", "\"index\": 7");
 
-    let cases: [(&str, Vec<PathBuf>, &Path, &str); 7] = [
+    let cases: [(&str, Vec<PathBuf>, &Path, &str); 9] = [
         ("a tile missing", vec![t[0].clone(), t[2].clone()], &t[0], "tile.index: tile(s) 1 of 3 missing"),
         (
             "a tile twice",
@@ -252,6 +263,13 @@ fn bad_merges_name_the_file_on_one_line_exit_2_and_write_nothing() {
             "cannot read the tile's pixels",
         ),
         ("a whole render's report", vec![whole.clone()], &whole, "not a tile's"),
+        ("zero tiles", vec![zero.clone()], &zero, "tile.count: must be in 1..=32, got 0"),
+        (
+            "an index past the count",
+            vec![t[1].clone(), beyond.clone(), t[2].clone()],
+            &beyond,
+            "tile.index: 7 is not below",
+        ),
     ];
     for (what, tiles, named, says) in cases {
         let out = dir.join("merged").join("frame.png");
