@@ -337,7 +337,7 @@ fn render_frame(
 }
 
 /// A frame's pixels as the outputs write them: a whole render's, or a merge's tiles'.
-pub struct Pixels<'a> {
+pub(crate) struct Pixels<'a> {
     pub width: u32,
     pub height: u32,
     pub radiance: &'a [glam::Vec3],
@@ -346,7 +346,7 @@ pub struct Pixels<'a> {
 }
 
 /// Creates the folder `png` goes in.
-pub fn create_output_folder(png: &Path) -> Result<(), CliError> {
+pub(crate) fn create_output_folder(png: &Path) -> Result<(), CliError> {
     if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .map_err(|e| SceneError::new(dir, "--out", format!("cannot create the folder: {e}")))?;
@@ -356,7 +356,7 @@ pub fn create_output_folder(png: &Path) -> Result<(), CliError> {
 
 /// Stages the PNG, the EXR beside it and, with `aov`, each light's visibility EXR and PNG,
 /// after creating the output folder. Returns their paths in that order.
-pub fn stage_images(
+pub(crate) fn stage_images(
     png: &Path,
     px: &Pixels,
     aov: bool,
@@ -396,7 +396,7 @@ pub fn stage_images(
 
 /// The pixels no primary ray hits (read off the first light's visibility; none without a
 /// light), which the cost heat map marks.
-pub fn missed_pixels(frame: &Frame, pixels: usize) -> Vec<bool> {
+pub(crate) fn missed_pixels(frame: &Frame, pixels: usize) -> Vec<bool> {
     match frame.visibility.first() {
         Some(v) => v.iter().map(|&v| v < 0.0).collect(),
         None => vec![false; pixels],
@@ -405,7 +405,7 @@ pub fn missed_pixels(frame: &Frame, pixels: usize) -> Vec<bool> {
 
 /// Stages `--profile`'s images beside `png`: the cost EXR and its heat map (`missed`: the
 /// pixels it marks). Returns their paths.
-pub fn stage_profile(
+pub(crate) fn stage_profile(
     png: &Path,
     [width, height]: [u32; 2],
     costs: &[renderer::util::profile::PixelCost],

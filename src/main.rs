@@ -105,7 +105,7 @@ fn merge(args: &MergeArgs) -> ExitCode {
             if !args.quiet {
                 let tiles = report.tiles.as_ref().map_or(0, Vec::len);
                 println!(
-                    "{}: {} {}x{} from {tiles} tile(s), {:.3}s of rendering in all",
+                    "{}: {} {}x{} from {tiles} tile(s), {:.3}s summed over the tiles and the merge",
                     report.scene, report.method, report.width, report.height, report.timings_s.total
                 );
                 println!("wrote {}", report.outputs.join(", "));

@@ -4,6 +4,7 @@
 //! committed together: a bad set of tiles writes nothing.
 
 use crate::report::{ProfileTotals, RunReport, TileInfo, TileRun, Timings};
+use crate::tile::PixelDigest;
 use crate::{CliError, Pixels, stage_images, stage_profile};
 use glam::Vec3;
 use renderer::util::output::StagedFiles;
@@ -116,12 +117,20 @@ fn check_tiles(tiles: &[Tile]) -> Result<(), CliError> {
             return Err(SceneError::new(&first.json, key, format!("must be in 1..={max}, got {v}")));
         }
     }
+    let (r, most) = (&first.report, crate::MAX_PRIMARY_SAMPLES);
+    if r.width as u64 * r.height as u64 * r.spp as u64 > most {
+        return Err(SceneError::new(
+            &first.json,
+            "spp",
+            format!("width x height x spp must be at most {most}"),
+        ));
+    }
     let mut seen: Vec<Option<&Path>> = vec![None; n as usize];
     for t in tiles {
         for ((key, want), (_, got)) in expected.iter().zip(identity(t)) {
             if *want != got {
                 let why = if *key == "tile.fingerprint" {
-                    "the scene's files or the method's settings differ".to_string()
+                    "the scene's files, the method's settings or the penumbra build differ".to_string()
                 } else {
                     format!("{got}, but {want} in {}", first.json.display())
                 };
@@ -144,13 +153,7 @@ fn check_tiles(tiles: &[Tile]) -> Result<(), CliError> {
             ));
         }
         seen[k as usize] = Some(&t.json);
-        if t.info.prepare_counters != first.info.prepare_counters {
-            return Err(SceneError::new(
-                &t.json,
-                "tile.prepare_counters",
-                format!("its shadow method prepared differently from {}'s", first.json.display()),
-            ));
-        }
+        prepared_alike(t, first)?;
     }
     let missing: Vec<String> =
         seen.iter().enumerate().filter(|(_, s)| s.is_none()).map(|(k, _)| k.to_string()).collect();
@@ -169,12 +172,37 @@ fn check_tiles(tiles: &[Tile]) -> Result<(), CliError> {
     Ok(())
 }
 
+/// Whether `t` prepared as `first` did: the same prepare counters and warnings, and query
+/// counters not below them (every tile's `prepare` sees the same frame).
+fn prepared_alike(t: &Tile, first: &Tile) -> Result<(), CliError> {
+    let below = t.info.prepare_counters.iter().find(|(k, v)| t.report.counters.get(*k).is_none_or(|c| c < v));
+    if let Some((name, _)) = below {
+        return Err(SceneError::new(&t.json, format!("counters.{name}"), "below its value after prepare"));
+    }
+    if (&t.info.scene_warnings, &t.info.method_warnings)
+        != (&first.info.scene_warnings, &first.info.method_warnings)
+    {
+        return Err(SceneError::new(
+            &t.json,
+            "tile.method_warnings",
+            format!("its scene or shadow method warned differently from {}'s", first.json.display()),
+        ));
+    }
+    if t.info.prepare_counters != first.info.prepare_counters {
+        return Err(SceneError::new(
+            &t.json,
+            "tile.prepare_counters",
+            format!("its shadow method prepared differently from {}'s", first.json.display()),
+        ));
+    }
+    Ok(())
+}
+
 /// What two tiles of one frame share: the settings a user can read, then the fingerprint of
 /// the files behind them.
-fn identity(t: &Tile) -> [(&'static str, String); 12] {
+fn identity(t: &Tile) -> [(&'static str, String); 14] {
     let r = &t.report;
     [
-        ("scene", r.scene.clone()),
         ("method", r.method.clone()),
         ("samples", r.samples.to_string()),
         ("width", r.width.to_string()),
@@ -182,6 +210,9 @@ fn identity(t: &Tile) -> [(&'static str, String); 12] {
         ("spp", r.spp.to_string()),
         ("max_depth", r.max_depth.to_string()),
         ("seed", r.seed.to_string()),
+        ("lights", r.lights.to_string()),
+        ("triangles", r.triangles.to_string()),
+        ("degenerate_triangles", r.degenerate_triangles.to_string()),
         ("tile.count", t.info.count.to_string()),
         ("tile.aov", t.info.aov.to_string()),
         ("tile.profile", t.info.profile.to_string()),
@@ -202,16 +233,21 @@ fn assemble(tiles: &[Tile]) -> Result<Assembled, CliError> {
         // Named as `render --tile` names them beside its report (PATH.png's siblings).
         let base = &t.json;
         let size = (t.report.width as usize, (t.info.rows[1] - t.info.rows[0]) as usize);
+        let mut digest = PixelDigest::default();
         let mut rgb = read_channels(&base.with_extension("exr"), size, &["R", "G", "B"])?
             .into_iter()
             .map(Channel::f32s);
         let (r, g, b) = (rgb.next().unwrap(), rgb.next().unwrap(), rgb.next().unwrap());
-        out.radiance.extend(r.iter().zip(&g).zip(&b).map(|((&r, &g), &b)| Vec3::new(r, g, b)));
+        let radiance = r.iter().zip(&g).zip(&b).map(|((&r, &g), &b)| Vec3::new(r, g, b));
+        let start = out.radiance.len();
+        out.radiance.extend(radiance);
+        digest.floats(out.radiance[start..].iter().flat_map(|c| c.to_array()));
         // Each light's layer is allocated as its first file is read: a report that claims
         // more lights than there are files fails at the first missing one.
         for k in 0..if first.info.aov { lights } else { 0 } {
             let path = base.with_extension(format!("visibility.{k}.exr"));
             let layer = read_channels(&path, size, &["R"])?.remove(0).f32s();
+            digest.floats(layer.iter().copied());
             if out.visibility.len() == k {
                 out.visibility.push(Vec::with_capacity(pixels));
             }
@@ -222,11 +258,21 @@ fn assemble(tiles: &[Tile]) -> Result<Assembled, CliError> {
             let mut c =
                 read_channels(&path, size, &["time.Y", "rays.Y", "shafts.Y", "lookups.Y", "missed.Y"])?;
             let counts: Vec<Vec<u32>> = c[1..].iter().map(Channel::u32s).collect();
-            for (i, time_s) in c.swap_remove(0).f32s().into_iter().enumerate() {
+            let times = c.swap_remove(0).f32s();
+            digest.floats(times.iter().copied());
+            counts.iter().for_each(|layer| digest.counts(layer.iter().copied()));
+            for (i, time_s) in times.into_iter().enumerate() {
                 let [rays, shafts, lookups] = [0, 1, 2].map(|j| counts[j][i] as u64);
                 costs.push(PixelCost { time_s, work: Work { rays, shafts, lookups, fallbacks: 0 } });
                 missed.push(counts[3][i] != 0);
             }
+        }
+        if digest.hex() != t.info.pixels {
+            return Err(SceneError::new(
+                &t.json,
+                "tile.pixels",
+                "the pixel files beside it are not the ones this render wrote (of another render or tile?)",
+            ));
         }
     }
     Ok(out)
@@ -289,7 +335,7 @@ fn merged_report(tiles: &[Tile], outputs: &[PathBuf], merge_s: f64) -> RunReport
     let mut profile: Option<ProfileTotals> = None;
     for t in tiles {
         for (k, v) in &t.report.counters {
-            *counters.entry(k.clone()).or_insert(0) += v.saturating_sub(prepare.get(k).copied().unwrap_or(0));
+            *counters.entry(k.clone()).or_insert(0) += v - prepare.get(k).copied().unwrap_or(0); // checked: not below
         }
         tally.add(&t.info.tally);
         timings.add(&t.report.timings_s);

@@ -117,6 +117,8 @@ pub struct TileInfo {
     /// A hash of the scene's files, the settings that change pixels and the program's
     /// version: tiles merge only with tiles of the same fingerprint.
     pub fingerprint: String,
+    /// A hash of its pixels as its files hold them ([`crate::tile::PixelDigest`]).
+    pub pixels: String,
     /// Whether its visibility AOVs and cost layers were written.
     pub aov: bool,
     pub profile: bool,

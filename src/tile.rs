@@ -111,6 +111,47 @@ pub fn fingerprint(f: &FingerprintInputs) -> Result<String, SceneError> {
     Ok(format!("{:016x}", h.finish()))
 }
 
+/// A hash of a tile's pixels as its files hold them (the radiance, each visibility layer, the
+/// cost layers), kept in its report: the merge hashes what it reads in the same order, so a
+/// file of another render or another tile beside the report is refused.
+pub struct PixelDigest(DefaultHasher);
+
+impl Default for PixelDigest {
+    fn default() -> Self {
+        PixelDigest(DefaultHasher::new())
+    }
+}
+
+impl PixelDigest {
+    pub fn floats(&mut self, values: impl Iterator<Item = f32>) {
+        values.for_each(|v| self.0.write_u32(v.to_bits()));
+    }
+    pub fn counts(&mut self, values: impl Iterator<Item = u32>) {
+        values.for_each(|v| self.0.write_u32(v));
+    }
+    pub fn hex(&self) -> String {
+        format!("{:016x}", self.0.finish())
+    }
+}
+
+/// The digest of `frame`'s pixels as [`stage_tile_images`] writes them.
+pub fn frame_digest(frame: &Frame, aov: bool) -> String {
+    let mut d = PixelDigest::default();
+    d.floats(frame.radiance.iter().flat_map(|c| c.to_array()));
+    for vis in frame.visibility.iter().filter(|_| aov) {
+        d.floats(vis.iter().copied());
+    }
+    if let Some(costs) = &frame.costs {
+        d.floats(costs.iter().map(|c| c.time_s));
+        let clamp = |n: u64| n.min(u32::MAX as u64) as u32;
+        d.counts(costs.iter().map(|c| clamp(c.work.rays)));
+        d.counts(costs.iter().map(|c| clamp(c.work.shafts)));
+        d.counts(costs.iter().map(|c| clamp(c.work.lookups)));
+        d.counts(crate::missed_pixels(frame, costs.len()).into_iter().map(u32::from));
+    }
+    d.hex()
+}
+
 /// Stages a tile's pixels beside `png` (which is not written): the radiance EXR and, as
 /// asked, the visibility AOVs and the cost layers. Returns their paths.
 pub fn stage_tile_images(
@@ -160,6 +201,7 @@ pub fn tile_info(
         count: spec.count,
         rows: [frame.rows.start, frame.rows.end],
         fingerprint: fingerprint.to_string(),
+        pixels: frame_digest(frame, args.aov),
         aov: args.aov,
         profile: args.profile,
         prepare_counters: frame.prepare_counters.clone(),
