@@ -152,8 +152,8 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     outputs.push(json_path.clone());
     let phases = Phases { loaded, write: t_write.elapsed(), total: t_total.elapsed() };
     let mut report = build_report(&plan, args.seed, threads, &scene, &frame, &outputs, phases);
-    if let (Some(spec), Some(fingerprint)) = (plan.tile, &plan.fingerprint) {
-        report.tile = Some(tile::tile_info(spec, fingerprint, args, &scene, &frame));
+    if let Some((spec, fingerprint)) = &plan.tile {
+        report.tile = Some(tile::tile_info(*spec, fingerprint, args, &scene, &frame));
         // The frame's own warnings wait for the merge: a tile of sky is not a black image.
         report.warnings = scene.warnings.iter().chain(&frame.method_warnings).cloned().collect();
     }
@@ -184,8 +184,7 @@ struct RenderPlan {
     max_depth: u32,
     png: PathBuf,
     /// `--tile`, and the fingerprint its report carries.
-    tile: Option<tile::TileSpec>,
-    fingerprint: Option<String>,
+    tile: Option<(tile::TileSpec, String)>,
 }
 
 /// Reads the scene file and applies `args`' overrides, checking every setting before
@@ -213,21 +212,10 @@ fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
             renderer::integrator::path::DEPTH_RANGE_TEXT,
         ));
     }
-    let mut plan = RenderPlan {
-        scene_path,
-        file,
-        shadows,
-        width,
-        height,
-        spp,
-        max_depth,
-        png,
-        tile: args.tile,
-        fingerprint: None,
-    };
+    let mut plan = RenderPlan { scene_path, file, shadows, width, height, spp, max_depth, png, tile: None };
     if let Some(spec) = args.tile {
         spec.check(height, &plan.scene_path)?;
-        plan.fingerprint = Some(tile::fingerprint(&tile::FingerprintInputs {
+        let fingerprint = tile::fingerprint(&tile::FingerprintInputs {
             scene_path: &plan.scene_path,
             embedded: args.scene.is_none().then_some(DEFAULT_SCENE),
             file: &plan.file,
@@ -238,7 +226,8 @@ fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
             count: spec.count,
             aov: args.aov,
             profile: args.profile,
-        })?);
+        })?;
+        plan.tile = Some((spec, fingerprint));
     }
     Ok(plan)
 }
@@ -331,7 +320,7 @@ fn render_frame(
         profile,
         max_depth: plan.max_depth,
     };
-    let rows = plan.tile.map_or(0..plan.height, |t| t.rows(plan.height));
+    let rows = plan.tile.as_ref().map_or(0..plan.height, |(t, _)| t.rows(plan.height));
     renderer::render_rows(scene, &mut methods, &settings, rows, &|p| progress.report(p))
         .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))
 }
