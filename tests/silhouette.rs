@@ -8,15 +8,19 @@ mod common;
 use common::checked;
 use common::gltf_writer::TempDir;
 use common::soups;
-use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery};
+use renderer::{
+    LightShadowing, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery, Traced, TracedParams,
+};
 use shadow_plugin::{Silhouette, SilhouetteParams};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// `silhouette` wrapped: each query's settled samples checked against traced rays.
+/// `silhouette` wrapped: each query's settled samples checked against traced rays, and its
+/// answer against `traced`'s own (the same samples, weighed: the share of irradiance).
 struct Checked {
     inner: Silhouette,
+    truth: Traced,
     settled: AtomicU64,
     traced: AtomicU64,
     wrong: AtomicU64,
@@ -28,15 +32,15 @@ impl LightShadowing for Checked {
         "silhouette"
     }
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
+        self.truth.prepare(ctx)?;
         self.inner.prepare(ctx)
     }
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
-        let (mut settled, mut traced, mut wrong, mut lit_by_tracing) = (0, 0, 0, 0u32);
+        let (mut settled, mut traced, mut wrong) = (0, 0, 0);
         let verdicts = self.inner.verdicts(scene, q);
         let samples: Vec<_> = verdicts.iter().map(|(s, _)| *s).collect();
         let truths = self.inner.traced_lit(scene, q, &samples);
         for ((_, verdict), &truth) in verdicts.iter().zip(&truths) {
-            lit_by_tracing += truth as u32;
             match verdict {
                 None => traced += 1,
                 Some(lit) => {
@@ -49,10 +53,7 @@ impl LightShadowing for Checked {
         self.traced.fetch_add(traced, Ordering::Relaxed);
         self.wrong.fetch_add(wrong, Ordering::Relaxed);
         let v = self.inner.visibility(scene, q);
-        // Tracing every sample gives `traced`'s answer (1 where shafts proved the whole light).
-        let all_traced =
-            if verdicts.is_empty() { 1.0 } else { lit_by_tracing as f32 / verdicts.len() as f32 };
-        if v.to_bits() != all_traced.to_bits() {
+        if v.to_bits() != self.truth.visibility(scene, q).to_bits() {
             self.answers_differ.fetch_add(1, Ordering::Relaxed);
         }
         v
@@ -80,6 +81,7 @@ impl ShadowMethod for CheckedMethod {
     fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
         Box::new(Checked {
             inner: Silhouette::new(SilhouetteParams::new(samples)),
+            truth: Traced::new(TracedParams::new(samples)),
             settled: AtomicU64::new(0),
             traced: AtomicU64::new(0),
             wrong: AtomicU64::new(0),

@@ -62,6 +62,14 @@ impl RectLight {
     /// the upper hemisphere of `n` and zero behind the emitting side. Multiply by
     /// `radiance` for E. Exact up to floating point (computed in f64).
     pub fn irradiance_factor(&self, p: Vec3, n: Vec3) -> f32 {
+        self.irradiance_factor_f64(p, n) as f32
+    }
+
+    /// [`RectLight::irradiance_factor`] before its rounding to f32: the integral of
+    /// g = cos cos / r^2 over the part of the light above the horizon of `n`, in m^0 (a
+    /// cosine-weighted solid angle), the denominator of the visibility's share of irradiance
+    /// ([`crate::methods::irradiance_share`]).
+    pub fn irradiance_factor_f64(&self, p: Vec3, n: Vec3) -> f64 {
         if !self.faces(p) {
             return 0.0;
         }
@@ -103,7 +111,7 @@ impl RectLight {
         }
         // The clipped polygon is convex and lies in one hemisphere, so every term has the
         // sign of the winding seen from p; the magnitude is the answer.
-        (0.5 * sum.abs()) as f32
+        0.5 * sum.abs()
     }
 
     /// Unshadowed irradiance E (per colour channel) at `p` with unit normal `n`.

@@ -8,6 +8,7 @@ use crate::geometry::ray_origin::offset_origin;
 use crate::geometry::scene::Scene;
 use crate::geometry::shaft;
 use crate::interface::shadowing::ShadowQuery;
+use crate::methods::irradiance_share::IrradianceShare;
 use crate::util::sampling::{Rng, strata};
 use glam::Vec3;
 
@@ -52,6 +53,7 @@ pub struct PointSamples<'a> {
     /// The origin of every ray above the geometric tangent plane (the shafts' apex).
     pub origin: Vec3,
     cover: shaft::Cover,
+    share: IrradianceShare,
 }
 
 impl<'a> PointSamples<'a> {
@@ -100,7 +102,21 @@ impl<'a> PointSamples<'a> {
         // accepts only rays the shaft holds), and the ray origin on the lit side (the one
         // `offset_origin` gives every target with n_geom . (target - p) >= 0).
         let cover = shaft::Cover::new(point, origin, light.max_point_error());
-        Ok(PointSamples { light, q, strata: (nx, ny), warp, clear, shaft_tests, origin, cover })
+        // The strata cover the warped part, or the whole rectangle (measure-preserving).
+        let part = warp.as_ref().map_or(1.0, |w| w.area());
+        let share = IrradianceShare::new(&light, point, part, nx * ny);
+        Ok(PointSamples { light, q, strata: (nx, ny), warp, clear, shaft_tests, origin, cover, share })
+    }
+
+    /// The weights of these samples and the visibility they make ([`IrradianceShare`]).
+    pub fn share(&self) -> &IrradianceShare {
+        &self.share
+    }
+
+    /// `s`'s weight g ([`IrradianceShare::weight`]).
+    #[inline]
+    pub fn weight(&self, s: &LightSample) -> f64 {
+        self.share.weight(s.target)
     }
 
     /// Shafts tested, and leaves found clear.

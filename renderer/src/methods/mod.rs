@@ -1,5 +1,6 @@
 //! The built-in shadow methods: `traced` (the ground truth) and `none` (the cost floor).
 //! Every other method lives in `shadow_plugin`, one folder each.
 
+pub mod irradiance_share;
 pub mod light_samples;
 pub mod traced;

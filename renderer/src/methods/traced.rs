@@ -6,6 +6,7 @@ use crate::geometry::scene::Scene;
 use crate::interface::entry::{MethodEntry, SweepSetting, top_samples};
 use crate::interface::method::{KeyError, MethodParams, NoKeys, ShadowMethod};
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
+use crate::methods::irradiance_share::ShareTally;
 use crate::methods::light_samples::{Culling, PointSamples};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -261,28 +262,13 @@ impl LightShadowing for Traced {
             Ok(samples) => samples,
             Err(visibility) => return visibility,
         };
-        let (mut above, mut unblocked, mut traced) = (0u32, 0u32, 0u32);
-        samples.for_each(|s| {
-            above += 1;
-            if s.proven {
-                unblocked += 1; // inside a clear shaft: proven unblocked
-                return;
-            }
-            traced += 1;
-            if !samples.occluded(scene, &s) {
-                unblocked += 1;
-            }
-        });
+        let (tally, traced) = trace_samples(scene, &samples);
         // Relaxed counters: one add per query, not per ray (measured: no visible cost).
         self.rays.fetch_add(traced as u64, Ordering::Relaxed);
-        self.occluded.fetch_add((above - unblocked) as u64, Ordering::Relaxed);
-        if above == 0 {
-            // The irradiance is non-zero but no sample landed above the horizon: a sliver of
-            // less than MIN_CLIPPED_AREA of the light (not warped), or lost to f32 rounding.
-            // Too small to resolve; count it unshadowed.
-            return 1.0;
-        }
-        unblocked as f32 / above as f32
+        self.occluded.fetch_add(tally.blocked as u64, Ordering::Relaxed);
+        // No sample above the horizon (a sliver of less than MIN_CLIPPED_AREA of the light,
+        // not warped, or lost to f32 rounding) reads 1: too small to resolve, unshadowed.
+        tally.visibility(samples.share())
     }
 
     fn counters(&self) -> Vec<(&'static str, u64)> {
@@ -296,6 +282,22 @@ impl LightShadowing for Traced {
         }
         c
     }
+}
+
+/// Every sample of `samples` traced (but those a shaft proved unblocked), counted and
+/// weighed in stratum order: the tally, and the rays traced. `traced`'s answer, and the
+/// whole-point fallback of the methods that must agree with it bit for bit.
+pub fn trace_samples(scene: &Scene, samples: &PointSamples) -> (ShareTally, u32) {
+    let (mut tally, mut traced) = (ShareTally::default(), 0u32);
+    samples.for_each(|s| {
+        // Inside a clear shaft: proven unblocked, no ray.
+        let blocked = !s.proven && {
+            traced += 1;
+            samples.occluded(scene, &s)
+        };
+        tally.add(samples.weight(&s), blocked);
+    });
+    (tally, traced)
 }
 
 #[cfg(test)]
@@ -372,16 +374,22 @@ mod tests {
     }
 
     #[test]
-    fn half_plane_visibility_converges_to_the_analytic_fraction() {
+    fn half_plane_visibility_converges_to_the_share_of_irradiance() {
         // Occluder: the half-plane x < 0 at y = 1. Light: 1 x 1 at y = 2, centred on x = 0.
-        // From P = (x0, 0, 0) the edge projects onto the light at x = -x0, so the visible
-        // fraction is clamp(0.5 + x0, 0, 1).
+        // From P = (x0, 0, 0) the edge projects onto the light at x = -x0: the part x > -x0
+        // is visible, and V is its irradiance over the whole light's (Lambert's formula on
+        // each rectangle). The area fraction, 0.5 + x0, is off by 0.02-0.04 here.
         let light = unit_light_at(2.0);
         let half_plane = ([-25.0, 1.0, 0.0], [50.0, 0.0, 0.0], [0.0, 0.0, 50.0]);
         let scene = quads_scene(&[FLOOR, half_plane], light);
         let seeds = 200u64;
         for x0 in [-0.31f32, 0.13, 0.37] {
-            let exact = (0.5 + x0 as f64).clamp(0.0, 1.0);
+            let width = 0.5 + x0;
+            let visible =
+                RectLight::new(Vec3::new(0.5 - width / 2.0, 2.0, 0.0), width * Vec3::X, Vec3::Z, Vec3::ONE);
+            let p = Vec3::new(x0, 0.0, 0.0);
+            let exact = visible.irradiance_factor_f64(p, Vec3::Y) / light.irradiance_factor_f64(p, Vec3::Y);
+            assert!((exact - width as f64).abs() > 0.015, "x0 {x0}: the test must tell the two apart");
             let mut rmse_by_n = Vec::new();
             for n in [4u32, 16, 64, 256, 1024] {
                 let t = traced(&scene, n);

@@ -27,6 +27,7 @@ use crate::march::region_reach;
 use glam::{Vec2, Vec3};
 use renderer::geometry::ray_origin::{gamma, offset_origin, shadow_ray_from};
 use renderer::geometry::shaft::{Cover, covers_light};
+use renderer::methods::irradiance_share::IrradianceShare;
 use renderer::{RectLight, Scene, ShadowQuery, Shaft};
 
 /// Relative distance of the near field's cut above the nearest bound around the point.
@@ -316,7 +317,13 @@ impl ExactMap {
                 decided[k] = (clear[k] | blocked[k]) & above[k];
             }
         }
-        let mut unblocked = bits::count_and(clear, above);
+        // The unblocked samples above the horizon: the clear ones, and those traced clear.
+        let mut open = [0u64; MAX_WORDS];
+        let open = &mut open[..words];
+        for k in 0..words {
+            open[k] = clear[k] & above[k];
+        }
+        let mut unblocked = bits::count(open);
         stats.rays_clear += unblocked as u64;
         stats.rays_blocked += bits::count_and(blocked, above) as u64;
         for k in 0..words {
@@ -331,6 +338,7 @@ impl ExactMap {
                 let Some(mut ray) = shadow_ray_from(from, target, light.point_error(a, b), light.normal)
                 else {
                     unblocked += 1; // nothing left of the segment: as traced, unblocked
+                    open[k] |= 1 << (r % 64);
                     continue;
                 };
                 // The part the shafts could not prove: only that stretch of the very ray
@@ -355,10 +363,11 @@ impl ExactMap {
                 stats.rays_traced += 1;
                 if !scene.occluded(ray) {
                     unblocked += 1;
+                    open[k] |= bit;
                 }
             }
         }
-        Some(unblocked as f32 / n_above as f32)
+        Some(share_of_irradiance(light, q, m, above, open, unblocked))
     }
 
     /// Each sample's verdict before tracing (tests): Some(true) clear, Some(false) blocked,
@@ -443,4 +452,34 @@ impl ExactMap {
         far_ok[..words].iter().zip(clear.iter()).map(|(f, _)| f.count_ones() as u64).sum::<u64>();
         split
     }
+}
+
+/// V as the share of irradiance ([`IrradianceShare`]) from the mask's samples above the
+/// horizon and the unblocked ones among them: the smaller set weighed, in sample order (the
+/// same bits whichever way each verdict was reached). The mask's samples are uniform over
+/// the whole light.
+fn share_of_irradiance(
+    light: &RectLight,
+    q: &ShadowQuery,
+    m: &ExactMask,
+    above: &[u64],
+    open: &[u64],
+    unblocked: u32,
+) -> f32 {
+    let n_above = bits::count(above);
+    let blocked = n_above - unblocked;
+    let share = IrradianceShare::new(light, &q.point, 1.0, m.mask.samples.len() as u32);
+    let mut smaller = 0.0;
+    if blocked != 0 && unblocked != 0 {
+        let weigh_open = !IrradianceShare::weigh_blocked(n_above, blocked);
+        for (k, (&above, &open)) in above.iter().zip(open).enumerate() {
+            let mut set = if weigh_open { open } else { above & !open };
+            while set != 0 {
+                let [a, b] = m.ab[k * 64 + set.trailing_zeros() as usize];
+                set &= set - 1;
+                smaller += share.weight(light.point(a, b));
+            }
+        }
+    }
+    share.visibility(n_above, blocked, smaller)
 }

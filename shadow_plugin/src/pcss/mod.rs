@@ -76,13 +76,15 @@
 //! ```
 
 use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
-use crate::depth_map::{DepthMap, DepthMapParams, MapPoint, MapSwitches};
+use crate::depth_map::{DepthMap, DepthMapParams, LightFrame, MapPoint, MapSwitches};
 use crate::fallback::{Located, MapFallback, OnMap};
 use crate::samples;
 use glam::{Vec2, Vec3};
+use renderer::methods::irradiance_share::IrradianceShare;
 use renderer::util::sampling::Rng;
 use renderer::{
-    KeyError, LightShadowing, MethodParams, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery,
+    KeyError, LightShadowing, MethodParams, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod,
+    ShadowQuery,
 };
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -264,6 +266,37 @@ fn texel(mp: &MapPoint, offset_px: Vec2) -> (i32, i32) {
     (mp.pixel[0].saturating_add(g.x.floor() as i32), mp.pixel[1].saturating_add(g.y.floor() as i32))
 }
 
+/// V as the share of irradiance ([`IrradianceShare`]) from the taps' verdicts: the smaller
+/// set's light samples weighed (only penumbra points weigh any). The taps are uniform over
+/// the whole light, in the frame's plane coordinates.
+fn share_of_irradiance(
+    frame: &LightFrame,
+    q: &ShadowQuery,
+    taps: &[Vec2],
+    above: &[u64],
+    open: &[u64],
+    lit: u32,
+) -> f32 {
+    let n_above = bits::count(above);
+    let blocked = n_above - lit;
+    let size = 2.0 * frame.half_size;
+    let light = RectLight::new(frame.origin, frame.x * size.x, frame.y * size.y, Vec3::ONE);
+    let share = IrradianceShare::new(&light, &q.point, 1.0, taps.len() as u32);
+    let mut smaller = 0.0;
+    if blocked != 0 && lit != 0 {
+        let weigh_open = !IrradianceShare::weigh_blocked(n_above, blocked);
+        for (k, (&above, &open)) in above.iter().zip(open).enumerate() {
+            let mut set = if weigh_open { open } else { above & !open };
+            while set != 0 {
+                let s = taps[k * 64 + set.trailing_zeros() as usize];
+                set &= set - 1;
+                smaller += share.weight(frame.world_from_light(s.extend(0.0)));
+            }
+        }
+    }
+    share.visibility(n_above, blocked, smaller)
+}
+
 impl LightShadowing for Pcss {
     fn name(&self) -> &'static str {
         Self::NAME
@@ -326,20 +359,20 @@ impl LightShadowing for Pcss {
         let mut above = [0u64; MAX_WORDS];
         samples::above_horizon(frame, taps, Vec2::ONE, &q.point, &mut above[..w]);
         let (mut lit, mut n_above) = (0u32, 0u32);
+        let mut open = [0u64; MAX_WORDS];
         for (r, s) in taps.iter().enumerate() {
             if above[r / 64] >> (r % 64) & 1 == 0 {
                 continue; // below the horizon: not part of the light this point sees
             }
             n_above += 1;
             let (i, j) = texel(&mp, *s * filter);
-            lit += !receiver.blocks(i, j, map.at(i, j)) as u32;
+            let unblocked = !receiver.blocks(i, j, map.at(i, j));
+            lit += unblocked as u32;
+            open[r / 64] |= (unblocked as u64) << (r % 64);
         }
         self.pcf_taps.fetch_add(n_above as u64, Ordering::Relaxed);
         renderer::util::profile::count_lookups(n_above as u64);
-        if n_above == 0 {
-            return 1.0;
-        }
-        lit as f32 / n_above as f32
+        share_of_irradiance(frame, q, taps, &above[..w], &open[..w], lit)
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -54,6 +54,7 @@ use edge_tree::EdgeTree;
 use edges::EdgeSet;
 use renderer::interface::method::NoKeys;
 use renderer::methods::light_samples::{Culling, LightSample, PointSamples};
+use renderer::methods::traced::trace_samples;
 use renderer::{
     KeyError, LightShadowing, MethodParams, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod,
     ShadowQuery, Traced, TracedParams,
@@ -168,20 +169,9 @@ impl Silhouette {
             Fallback::Inconsistent => &c.fallback_inconsistent,
         }
         .fetch_add(1, Ordering::Relaxed);
-        let (mut above, mut unblocked, mut rays) = (0u32, 0u32, 0u64);
-        samples.for_each(|s| {
-            above += 1;
-            if s.proven {
-                unblocked += 1;
-                return;
-            }
-            rays += 1;
-            if !samples.occluded(scene, &s) {
-                unblocked += 1;
-            }
-        });
-        c.rays.fetch_add(rays, Ordering::Relaxed);
-        if above == 0 { 1.0 } else { unblocked as f32 / above as f32 }
+        let (tally, rays) = trace_samples(scene, samples);
+        c.rays.fetch_add(rays as u64, Ordering::Relaxed);
+        tally.visibility(samples.share())
     }
 }
 

@@ -9,6 +9,7 @@ use glam::{DVec2, Vec3};
 use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;
 use renderer::geometry::shaft::{self, Shaft};
+use renderer::methods::irradiance_share::IrradianceShare;
 use renderer::methods::light_samples::{LightSample, PointSamples};
 use renderer::{RectLight, Scene, ShadowQuery};
 use std::sync::atomic::Ordering;
@@ -360,23 +361,45 @@ fn count_cells(
         Some((_, None)) => return Ok(None),
         None => None,
     };
-    let (mut visible, mut uncertain) = (0u32, 0u64);
+    let mut uncertain = 0u64;
+    let verdicts = &mut s.lit;
+    verdicts.clear();
     for k in 0..cells {
-        if near[k] != 0 {
+        let open = if near[k] != 0 {
             let Some(x) = samples.at(k as u32) else { return Ok(None) };
             uncertain += 1;
             rays += 1;
-            visible += !samples.occluded(scene, &x) as u32;
+            !samples.occluded(scene, &x)
         } else {
-            visible += (Some(rel[k]) == lit) as u32;
-        }
+            Some(rel[k]) == lit
+        };
+        verdicts.push(open);
     }
     if lit.is_none() && uncertain < cells as u64 {
         c.points_umbra.fetch_add(1, Ordering::Relaxed);
     }
     c.rays.fetch_add(rays, Ordering::Relaxed);
     c.samples_uncertain.fetch_add(uncertain, Ordering::Relaxed);
-    Ok(Some(visible as f32 / cells as f32))
+    // Every cell's sample lies above the horizon here (`at` answered each one drawn, and
+    // the others by `wholly_above`'s margin), so `at` draws each weighed one.
+    Ok(Some(share(samples, verdicts, |k| samples.at(k as u32).map(|x| samples.weight(&x)))))
+}
+
+/// V from each counted sample's verdict, in stratum order ([`IrradianceShare`]): the weights
+/// of the smaller set only, from `weight` (`None` never happens for a counted sample; it
+/// counts nothing).
+fn share(samples: &PointSamples, lit: &[bool], weight: impl Fn(usize) -> Option<f64>) -> f32 {
+    let counted = lit.len() as u32;
+    let blocked = counted - lit.iter().filter(|&&l| l).count() as u32;
+    if blocked == 0 || blocked == counted {
+        return samples.share().visibility(counted, blocked, 0.0);
+    }
+    let weigh_lit = !IrradianceShare::weigh_blocked(counted, blocked);
+    let mut smaller = 0.0;
+    for (k, _) in lit.iter().enumerate().filter(|&(_, &l)| l == weigh_lit) {
+        smaller += weight(k).unwrap_or(0.0);
+    }
+    samples.share().visibility(counted, blocked, smaller)
 }
 
 /// The visibility of `q` from its silhouette edges, or why the point must be traced whole.
@@ -405,25 +428,26 @@ pub(super) fn count(
             return Ok(1.0);
         }
         let c = &plugin.counters;
-        let mut visible = 0u32;
         let mut uncertain = 0u64;
+        s.lit.clear();
         for (k, x) in s.samples.iter().enumerate() {
-            if s.uncertain[k] {
+            let open = if s.uncertain[k] {
                 uncertain += 1;
                 rays += 1;
-                visible += !samples.occluded(scene, x) as u32;
+                !samples.occluded(scene, x)
             } else if s.mixed[k] != 0 {
-                visible += (s.mixed[k] == MIXED_LIT) as u32;
+                s.mixed[k] == MIXED_LIT
             } else {
-                visible += (Some(s.rel[k]) == lit[(x.height < 0.0) as usize]) as u32;
-            }
+                Some(s.rel[k]) == lit[(x.height < 0.0) as usize]
+            };
+            s.lit.push(open);
         }
         if lit == [None; 2] && uncertain < s.samples.len() as u64 {
             c.points_umbra.fetch_add(1, Ordering::Relaxed);
         }
         c.rays.fetch_add(rays, Ordering::Relaxed);
         c.samples_uncertain.fetch_add(uncertain, Ordering::Relaxed);
-        Ok(visible as f32 / s.samples.len() as f32)
+        Ok(share(samples, &s.lit, |k| Some(samples.weight(&s.samples[k]))))
     })
 }
 

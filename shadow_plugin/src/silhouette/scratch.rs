@@ -44,6 +44,8 @@ pub(super) struct Scratch {
     pub(super) drawn: Vec<bool>,
     /// Per sample: held by an alpha-only region (1) or another (2) ([`Scratch::test_regions`]).
     pub(super) region_marks: Vec<u8>,
+    /// Per sample (or cell): the final verdict, unblocked; the smaller set is weighed from it.
+    pub(super) lit: Vec<bool>,
 }
 
 thread_local! {

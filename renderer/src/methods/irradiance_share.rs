@@ -1,0 +1,128 @@
+//! The shadow term every method returns: the share of the light's irradiance that arrives,
+//! estimated from a point's light samples and their verdicts (contract, "Conventions").
+//!
+//! Each sample y_i carries g_i = cos(theta_x) cos(theta_y) / r^2 (theta_x from the shading
+//! normal, as the unshadowed irradiance E = L G takes it). The samples are uniform over the
+//! part of the light above the horizon (the rectangle, or the horizon warp's part: both
+//! measure-preserving), so each stands for `a = |part| / N` of it and `a sum g_i` over a set
+//! estimates that set's share of G without bias. G itself is exact (Lambert's formula, the
+//! same the shading multiplies by), so
+//!
+//! ```text
+//! V = 1 - a sum_{blocked} g_i / G    when at most half the samples are blocked,
+//! V = a sum_{visible} g_i / G        otherwise,
+//! ```
+//!
+//! clamped to [0, 1]: a point with nothing blocked is exactly 1 and one with nothing visible
+//! exactly 0, and only the smaller of the two sets is weighed (a method that knows each
+//! sample's verdict, like `silhouette`, weighs no sample where a point is lit or in umbra).
+//! The sums run in stratum order from 0, so every method that reaches the same verdicts
+//! returns the same bits. Rejected: the ratio sum_{visible} g / sum_{all} g (needs every
+//! sample's weight at every penumbra point, and is biased by O(1/N)); sampling in proportion
+//! to g (solid angle or projected solid angle: the samples leave the light's row grid that
+//! `silhouette` counts along). Measured against both: `docs/notes/2026-11-28-visibility-estimators.md`.
+
+use crate::geometry::light::RectLight;
+use crate::geometry::point::ShadingPoint;
+use glam::{DVec3, Vec3};
+
+/// One point's weights and the share they make: see the module doc.
+#[derive(Debug, Clone, Copy)]
+pub struct IrradianceShare {
+    light: RectLight,
+    p: Vec3,
+    n: Vec3,
+    p64: DVec3,
+    n64: DVec3,
+    /// The light's normal, toward the side it emits to.
+    light_n: DVec3,
+    /// The area each sample stands for: |part above the horizon| / N, in m^2.
+    sample_area: f64,
+}
+
+impl IrradianceShare {
+    /// The weights of `point`'s samples of `light`: `samples` of them uniform over a part of
+    /// the light of `part` times its area (1: the whole rectangle).
+    pub fn new(light: &RectLight, point: &ShadingPoint, part: f64, samples: u32) -> Self {
+        let area = light.u.as_dvec3().cross(light.v.as_dvec3()).length();
+        Self {
+            light: *light,
+            p: point.p,
+            n: point.n_shading,
+            p64: point.p.as_dvec3(),
+            n64: point.n_shading.as_dvec3(),
+            light_n: light.normal.as_dvec3(),
+            sample_area: area * part / samples.max(1) as f64,
+        }
+    }
+
+    /// g at the light point `target`: cos(theta_x) cos(theta_y) / r^2, in f64 (r^4 of a
+    /// point 1e-10 m or 1e10 m away stays in range). Without square roots: the two cosines'
+    /// r cancel into r^4. A sample below either surface counts nothing (rounding at the cut).
+    #[inline]
+    pub fn weight(&self, target: Vec3) -> f64 {
+        let w = target.as_dvec3() - self.p64;
+        let r2 = w.length_squared();
+        self.n64.dot(w).max(0.0) * (-self.light_n.dot(w)).max(0.0) / (r2 * r2)
+    }
+
+    /// Whether the blocked samples are the set to weigh: at most half of those counted.
+    #[inline]
+    pub fn weigh_blocked(counted: u32, blocked: u32) -> bool {
+        2 * blocked as u64 <= counted as u64
+    }
+
+    /// V from `blocked` of `counted` samples, with `smaller` the sum of the weights of the
+    /// set [`IrradianceShare::weigh_blocked`] names (in stratum order). Exactly 1 with none
+    /// blocked and 0 with all; the area fraction where the weights cannot say (a light the
+    /// point sees edge-on, where E is 0 and V multiplies nothing).
+    pub fn visibility(&self, counted: u32, blocked: u32, smaller: f64) -> f32 {
+        if blocked == 0 || counted == 0 {
+            return 1.0;
+        }
+        if blocked >= counted {
+            return 0.0;
+        }
+        let total = self.light.irradiance_factor_f64(self.p, self.n);
+        let share = self.sample_area * smaller / total;
+        let v = if Self::weigh_blocked(counted, blocked) { 1.0 - share } else { share };
+        if total > 0.0 && v.is_finite() {
+            v.clamp(0.0, 1.0) as f32
+        } else {
+            (counted - blocked) as f32 / counted as f32
+        }
+    }
+}
+
+/// Verdicts counted and weighed as they come, for a method that learns every sample's
+/// verdict in stratum order (`traced`): both sets are summed, the smaller one is used.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct ShareTally {
+    pub counted: u32,
+    pub blocked: u32,
+    weight_blocked: f64,
+    weight_visible: f64,
+}
+
+impl ShareTally {
+    #[inline]
+    pub fn add(&mut self, weight: f64, blocked: bool) {
+        self.counted += 1;
+        if blocked {
+            self.blocked += 1;
+            self.weight_blocked += weight;
+        } else {
+            self.weight_visible += weight;
+        }
+    }
+
+    /// V (see [`IrradianceShare::visibility`]).
+    pub fn visibility(&self, share: &IrradianceShare) -> f32 {
+        let smaller = if IrradianceShare::weigh_blocked(self.counted, self.blocked) {
+            self.weight_blocked
+        } else {
+            self.weight_visible
+        };
+        share.visibility(self.counted, self.blocked, smaller)
+    }
+}
