@@ -24,7 +24,7 @@
 
 use crate::geometry::light::RectLight;
 use crate::geometry::point::ShadingPoint;
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 
 /// One point's weights and the share they make: see the module doc.
 #[derive(Debug, Clone, Copy)]
@@ -32,10 +32,9 @@ pub struct IrradianceShare {
     light: RectLight,
     p: Vec3,
     n: Vec3,
-    p64: DVec3,
-    n64: DVec3,
-    /// The light's normal, toward the side it emits to.
-    light_n: DVec3,
+    /// The point's height over the light's plane, n_L . (p - c): r cos(theta_y) for every
+    /// light point (positive where the point faces the emitting side).
+    height: f32,
     /// The area each sample stands for: |part above the horizon| / N, in m^2.
     sample_area: f64,
 }
@@ -45,25 +44,27 @@ impl IrradianceShare {
     /// the light of `part` times its area (1: the whole rectangle).
     pub fn new(light: &RectLight, point: &ShadingPoint, part: f64, samples: u32) -> Self {
         let area = light.u.as_dvec3().cross(light.v.as_dvec3()).length();
+        let height = light.normal.as_dvec3().dot(point.p.as_dvec3() - light.center.as_dvec3());
         Self {
             light: *light,
             p: point.p,
             n: point.n_shading,
-            p64: point.p.as_dvec3(),
-            n64: point.n_shading.as_dvec3(),
-            light_n: light.normal.as_dvec3(),
+            height: height.max(0.0) as f32,
             sample_area: area * part / samples.max(1) as f64,
         }
     }
 
-    /// g at the light point `target`: cos(theta_x) cos(theta_y) / r^2, in f64 (r^4 of a
-    /// point 1e-10 m or 1e10 m away stays in range). Without square roots: the two cosines'
-    /// r cancel into r^4. A sample below either surface counts nothing (rounding at the cut).
-    #[inline]
+    /// g at the light point `target`: cos(theta_x) cos(theta_y) / r^2 = (n . w) h / r^4 with
+    /// w = target - p and h the point's height over the light's plane (no square root), as
+    /// (n . w / r^2) (h / r^2) so that f32 holds points 1e-15 m to 1e15 m away. A sample
+    /// under the horizon by rounding counts nothing. f32 on purpose: weighing is the only
+    /// per-sample work `silhouette` adds in penumbra (measured: f64 and a full redraw of each
+    /// sample cost it 37% on the default scene).
+    #[inline(always)]
     pub fn weight(&self, target: Vec3) -> f64 {
-        let w = target.as_dvec3() - self.p64;
-        let r2 = w.length_squared();
-        self.n64.dot(w).max(0.0) * (-self.light_n.dot(w)).max(0.0) / (r2 * r2)
+        let w = target - self.p;
+        let inv = 1.0 / w.length_squared();
+        (self.n.dot(w).max(0.0) * inv * (self.height * inv)) as f64
     }
 
     /// Whether the blocked samples are the set to weigh: at most half of those counted.

@@ -162,6 +162,21 @@ impl<'a> PointSamples<'a> {
         }
     }
 
+    /// The weight g of the sample [`PointSamples::at`] draws for `stratum`, for a point
+    /// whose strata are not warped and whose samples all lie above its horizon (then `at`
+    /// would draw it): the same target, without the horizon and shaft tests.
+    #[inline]
+    pub fn weight_at(&self, stratum: u32) -> f64 {
+        debug_assert!(self.warp.is_none());
+        let (nx, ny) = self.strata;
+        let (i, j) = (stratum % nx, stratum / nx);
+        let mut rng = Rng::new(self.q.seed);
+        rng.skip(2 * stratum as u64);
+        let a = (i as f32 + rng.next_f32()) / nx as f32;
+        let b = (j as f32 + rng.next_f32()) / ny as f32;
+        self.share.weight(self.light.point(a, b))
+    }
+
     /// The sample [`PointSamples::for_each`] draws for stratum `i + nx j`, alone (the
     /// stream jumps to its draws), unless it falls below the shading horizon.
     pub fn at(&self, stratum: u32) -> Option<LightSample> {

@@ -362,8 +362,7 @@ fn count_cells(
         None => None,
     };
     let mut uncertain = 0u64;
-    let verdicts = &mut s.lit;
-    verdicts.clear();
+    let mut verdicts = Verdicts::new(&mut s.lit);
     for k in 0..cells {
         let open = if near[k] != 0 {
             let Some(x) = samples.at(k as u32) else { return Ok(None) };
@@ -375,29 +374,77 @@ fn count_cells(
         };
         verdicts.push(open);
     }
+    let visible = verdicts.finish();
     if lit.is_none() && uncertain < cells as u64 {
         c.points_umbra.fetch_add(1, Ordering::Relaxed);
     }
     c.rays.fetch_add(rays, Ordering::Relaxed);
     c.samples_uncertain.fetch_add(uncertain, Ordering::Relaxed);
     // Every cell's sample lies above the horizon here (`at` answered each one drawn, and
-    // the others by `wholly_above`'s margin), so `at` draws each weighed one.
-    Ok(Some(share(samples, verdicts, |k| samples.at(k as u32).map(|x| samples.weight(&x)))))
+    // the others by `wholly_above`'s margin) and the strata are not warped: `weight_at`.
+    Ok(Some(share(samples, &s.lit, cells as u32, visible, |k| samples.weight_at(k as u32))))
 }
 
-/// V from each counted sample's verdict, in stratum order ([`IrradianceShare`]): the weights
-/// of the smaller set only, from `weight` (`None` never happens for a counted sample; it
-/// counts nothing).
-fn share(samples: &PointSamples, lit: &[bool], weight: impl Fn(usize) -> Option<f64>) -> f32 {
-    let counted = lit.len() as u32;
-    let blocked = counted - lit.iter().filter(|&&l| l).count() as u32;
-    if blocked == 0 || blocked == counted {
-        return samples.share().visibility(counted, blocked, 0.0);
+/// Verdicts packed into bit words (bit k: sample k unblocked), a register word at a time: a
+/// read-modify-write of memory per sample serialised the loop on store forwarding (measured:
+/// a fifth of `silhouette`'s time on the default scene).
+struct Verdicts<'a> {
+    words: &'a mut Vec<u64>,
+    word: u64,
+    bit: u32,
+    ones: u32,
+}
+
+impl<'a> Verdicts<'a> {
+    fn new(words: &'a mut Vec<u64>) -> Self {
+        words.clear();
+        Verdicts { words, word: 0, bit: 0, ones: 0 }
     }
-    let weigh_lit = !IrradianceShare::weigh_blocked(counted, blocked);
+
+    #[inline(always)]
+    fn push(&mut self, open: bool) {
+        self.word |= (open as u64) << self.bit;
+        self.ones += open as u32;
+        self.bit += 1;
+        if self.bit == 64 {
+            self.words.push(self.word);
+            (self.word, self.bit) = (0, 0);
+        }
+    }
+
+    /// The count of unblocked samples.
+    fn finish(self) -> u32 {
+        if self.bit > 0 {
+            self.words.push(self.word);
+        }
+        self.ones
+    }
+}
+
+/// V from the counted samples' verdicts (bit k of `open`: sample k unblocked), in stratum
+/// order ([`IrradianceShare`]): only the smaller set's weights, from `weight`, and none at a
+/// point with nothing blocked or nothing visible.
+fn share(
+    samples: &PointSamples,
+    open: &[u64],
+    counted: u32,
+    visible: u32,
+    weight: impl Fn(usize) -> f64,
+) -> f32 {
+    let blocked = counted - visible;
     let mut smaller = 0.0;
-    for (k, _) in lit.iter().enumerate().filter(|&(_, &l)| l == weigh_lit) {
-        smaller += weight(k).unwrap_or(0.0);
+    if blocked != 0 && visible != 0 {
+        let weigh_open = !IrradianceShare::weigh_blocked(counted, blocked);
+        for (w, &bits) in open.iter().enumerate() {
+            // The blocked ones: the clear bits among the counted samples of this word.
+            let in_word = (counted as usize - 64 * w).min(64);
+            let counted_bits = if in_word == 64 { !0 } else { (1u64 << in_word) - 1 };
+            let mut set = if weigh_open { bits } else { !bits & counted_bits };
+            while set != 0 {
+                smaller += weight(64 * w + set.trailing_zeros() as usize);
+                set &= set - 1;
+            }
+        }
     }
     samples.share().visibility(counted, blocked, smaller)
 }
@@ -429,7 +476,7 @@ pub(super) fn count(
         }
         let c = &plugin.counters;
         let mut uncertain = 0u64;
-        s.lit.clear();
+        let mut verdicts = Verdicts::new(&mut s.lit);
         for (k, x) in s.samples.iter().enumerate() {
             let open = if s.uncertain[k] {
                 uncertain += 1;
@@ -440,14 +487,15 @@ pub(super) fn count(
             } else {
                 Some(s.rel[k]) == lit[(x.height < 0.0) as usize]
             };
-            s.lit.push(open);
+            verdicts.push(open);
         }
+        let visible = verdicts.finish();
         if lit == [None; 2] && uncertain < s.samples.len() as u64 {
             c.points_umbra.fetch_add(1, Ordering::Relaxed);
         }
         c.rays.fetch_add(rays, Ordering::Relaxed);
         c.samples_uncertain.fetch_add(uncertain, Ordering::Relaxed);
-        Ok(share(samples, &s.lit, |k| Some(samples.weight(&s.samples[k]))))
+        Ok(share(samples, &s.lit, s.samples.len() as u32, visible, |k| samples.weight(&s.samples[k])))
     })
 }
 

@@ -44,8 +44,9 @@ pub(super) struct Scratch {
     pub(super) drawn: Vec<bool>,
     /// Per sample: held by an alpha-only region (1) or another (2) ([`Scratch::test_regions`]).
     pub(super) region_marks: Vec<u8>,
-    /// Per sample (or cell): the final verdict, unblocked; the smaller set is weighed from it.
-    pub(super) lit: Vec<bool>,
+    /// Per sample (or cell), bit k of word k / 64: the final verdict, unblocked; the smaller
+    /// set is weighed from it, one set bit at a time.
+    pub(super) lit: Vec<u64>,
 }
 
 thread_local! {
