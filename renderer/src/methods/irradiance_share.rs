@@ -32,10 +32,13 @@ pub struct IrradianceShare {
     light: RectLight,
     p: Vec3,
     n: Vec3,
-    /// The point's height over the light's plane, n_L . (p - c): r cos(theta_y) for every
-    /// light point (positive where the point faces the emitting side).
+    /// 1 / the point's distance to the light's centre: lengths are measured in that unit, so
+    /// that f32 holds r^4 for a scene 1e-20 m or 1e20 m across.
+    inv_unit: f32,
+    /// The point's height over the light's plane, n_L . (p - c), in that unit: r cos(theta_y)
+    /// for every light point (positive where the point faces the emitting side).
     height: f32,
-    /// The area each sample stands for: |part above the horizon| / N, in m^2.
+    /// The area each sample stands for: |part above the horizon| / N, in that unit squared.
     sample_area: f64,
 }
 
@@ -44,25 +47,30 @@ impl IrradianceShare {
     /// the light of `part` times its area (1: the whole rectangle).
     pub fn new(light: &RectLight, point: &ShadingPoint, part: f64, samples: u32) -> Self {
         let area = light.u.as_dvec3().cross(light.v.as_dvec3()).length();
-        let height = light.normal.as_dvec3().dot(point.p.as_dvec3() - light.center.as_dvec3());
+        let to_point = point.p.as_dvec3() - light.center.as_dvec3();
+        let unit = match to_point.length() {
+            d if d > 0.0 && d.is_finite() => d,
+            _ => 1.0,
+        };
         Self {
             light: *light,
             p: point.p,
             n: point.n_shading,
-            height: height.max(0.0) as f32,
-            sample_area: area * part / samples.max(1) as f64,
+            inv_unit: (1.0 / unit) as f32,
+            height: (light.normal.as_dvec3().dot(to_point).max(0.0) / unit) as f32,
+            sample_area: area / (unit * unit) * part / samples.max(1) as f64,
         }
     }
 
     /// g at the light point `target`: cos(theta_x) cos(theta_y) / r^2 = (n . w) h / r^4 with
-    /// w = target - p and h the point's height over the light's plane (no square root), as
-    /// (n . w / r^2) (h / r^2) so that f32 holds points 1e-15 m to 1e15 m away. A sample
+    /// w = target - p and h the point's height over the light's plane (no square root), in
+    /// the point's unit of length ([`IrradianceShare::sample_area`] is in the same). A sample
     /// under the horizon by rounding counts nothing. f32 on purpose: weighing is the only
     /// per-sample work `silhouette` adds in penumbra (measured: f64 and a full redraw of each
     /// sample cost it 37% on the default scene).
     #[inline(always)]
     pub fn weight(&self, target: Vec3) -> f64 {
-        let w = target - self.p;
+        let w = (target - self.p) * self.inv_unit;
         let inv = 1.0 / w.length_squared();
         (self.n.dot(w).max(0.0) * inv * (self.height * inv)) as f64
     }

@@ -2,6 +2,7 @@
 //! seed, the horizon warp and the shafts proven clear, drawn in one order. `traced` traces
 //! them; methods that must agree with it sample by sample (`silhouette`) draw the same.
 
+use crate::geometry::irradiance_strata::{Columns, IrradianceStrata};
 use crate::geometry::light::RectLight;
 use crate::geometry::light_sampling::{HorizonPart, HorizonWarp};
 use crate::geometry::ray_origin::offset_origin;
@@ -39,6 +40,10 @@ pub struct LightSample {
     pub proven: bool,
     /// The stratum, `i + nx j` of the `nx` x `ny` grid ([`PointSamples::strata`]).
     pub stratum: u32,
+    /// The stratum's area over the plain grid's (1 / N of the light, or of the warped part):
+    /// other than 1 where the strata follow g ([`IrradianceStrata`]). The sample's weight is
+    /// g times this.
+    pub scale: f32,
 }
 
 /// The samples of one shading point, ready to be drawn ([`PointSamples::for_each`]).
@@ -48,6 +53,9 @@ pub struct PointSamples<'a> {
     q: &'a ShadowQuery,
     strata: (u32, u32),
     warp: Option<HorizonWarp>,
+    /// Strata in proportion to g, where it varies over the light (the whole light above the
+    /// horizon only).
+    by_g: Option<IrradianceStrata>,
     clear: u64,
     shaft_tests: u32,
     /// The origin of every ray above the geometric tangent plane (the shafts' apex).
@@ -71,20 +79,30 @@ impl<'a> PointSamples<'a> {
         // ([`crate::geometry::light_sampling::HorizonWarp`]): every sample counts. The whole light
         // above, or too thin a part above, keeps the plain grid (and its fallback below).
         let point = &q.point;
-        let warp = match HorizonPart::new(&light, point) {
-            HorizonPart::Clipped(w) => Some(w),
-            HorizonPart::Whole | HorizonPart::Degenerate => None,
+        let (warp, by_g) = match HorizonPart::new(&light, point) {
+            HorizonPart::Clipped(w) => (Some(w), None),
+            HorizonPart::Whole => (None, IrradianceStrata::new(&light, point)),
+            HorizonPart::Degenerate => (None, None),
         };
         let (clear, shaft_tests) = if culling != Culling::Off {
             let subdivide = culling == Culling::Leaves;
-            match &warp {
-                None => shaft::clear_leaves_mapped(scene, &light, point, (nx, ny), subdivide, |a, b| (a, b)),
+            match (&warp, &by_g) {
+                (None, None) => {
+                    shaft::clear_leaves_mapped(scene, &light, point, (nx, ny), subdivide, |a, b| (a, b))
+                }
+                (None, Some(g)) => {
+                    shaft::clear_leaves_mapped(scene, &light, point, (nx, ny), subdivide, |a, b| {
+                        g.block_bounds(a, b)
+                    })
+                }
                 // A leaf's samples lie in the image of its strata block: prove the shaft to
                 // that image's bounding rectangle.
-                Some(w) => shaft::clear_leaves_mapped(scene, &light, point, (nx, ny), subdivide, |a, b| {
-                    let (a, b) = w.bounds(a.map(f64::from), b.map(f64::from));
-                    (a.map(|x| x as f32), b.map(|x| x as f32))
-                }),
+                (Some(w), _) => {
+                    shaft::clear_leaves_mapped(scene, &light, point, (nx, ny), subdivide, |a, b| {
+                        let (a, b) = w.bounds(a.map(f64::from), b.map(f64::from));
+                        (a.map(|x| x as f32), b.map(|x| x as f32))
+                    })
+                }
             }
         } else {
             (0, 0)
@@ -105,7 +123,7 @@ impl<'a> PointSamples<'a> {
         // The strata cover the warped part, or the whole rectangle (measure-preserving).
         let part = warp.as_ref().map_or(1.0, |w| w.area());
         let share = IrradianceShare::new(&light, point, part, nx * ny);
-        Ok(PointSamples { light, q, strata: (nx, ny), warp, clear, shaft_tests, origin, cover, share })
+        Ok(PointSamples { light, q, strata: (nx, ny), warp, by_g, clear, shaft_tests, origin, cover, share })
     }
 
     /// The weights of these samples and the visibility they make ([`IrradianceShare`]).
@@ -113,10 +131,10 @@ impl<'a> PointSamples<'a> {
         &self.share
     }
 
-    /// `s`'s weight g ([`IrradianceShare::weight`]).
+    /// `s`'s weight: g ([`IrradianceShare::weight`]) times its stratum's [`LightSample::scale`].
     #[inline]
     pub fn weight(&self, s: &LightSample) -> f64 {
-        self.share.weight(s.target)
+        self.share.weight(s.target) * s.scale as f64
     }
 
     /// Shafts tested, and leaves found clear.
@@ -130,10 +148,12 @@ impl<'a> PointSamples<'a> {
         self.strata
     }
 
-    /// Whether the strata are warped onto the part of the light above the horizon (then a
-    /// sample may lie anywhere, whatever its stratum).
-    pub fn warped(&self) -> bool {
-        self.warp.is_some()
+    /// Whether the strata are the plain grid: stratum (i, j)'s sample in
+    /// [i / nx, (i + 1) / nx] x [j / ny, (j + 1) / ny]. Not where they are warped onto the part
+    /// of the light above the horizon, or follow g ([`IrradianceStrata`]): then a sample may
+    /// lie anywhere, whatever its stratum.
+    pub fn plain_grid(&self) -> bool {
+        self.warp.is_none() && self.by_g.is_none()
     }
 
     /// Calls `f` with every sample above the shading horizon, in `traced`'s order.
@@ -144,6 +164,11 @@ impl<'a> PointSamples<'a> {
         let (lx, ly) = shaft::leaves_per_axis((nx, ny));
         let mut rng = Rng::new(self.q.seed);
         for j in 0..ny {
+            // Where the strata follow g: this row's band and column CDF, once per row.
+            let by_g = self.by_g.as_ref().map(|g| {
+                let band = g.row(j, ny);
+                (band, g.columns(band))
+            });
             // This row's clear leaves, as bits 0..lx; leaf column `x` holds samples
             // first(x) <= i < first(x + 1) ([`shaft::leaf_bit`], stepped instead of divided).
             let row_clear =
@@ -155,19 +180,19 @@ impl<'a> PointSamples<'a> {
                     next_col = shaft::first_stratum(col + 1, nx, lx);
                 }
                 debug_assert_eq!(row_clear & (1 << col) != 0, clear & shaft::leaf_bit(i, j, (nx, ny)) != 0);
-                if let Some(x) = self.draw(i, j, &mut rng, row_clear & (1 << col) != 0) {
+                if let Some(x) = self.draw(i, j, &mut rng, row_clear & (1 << col) != 0, by_g.as_ref()) {
                     f(x);
                 }
             }
         }
     }
 
-    /// The weight g of the sample [`PointSamples::at`] draws for `stratum`, for a point
-    /// whose strata are not warped and whose samples all lie above its horizon (then `at`
-    /// would draw it): the same target, without the horizon and shaft tests.
+    /// The weight of the sample [`PointSamples::at`] draws for `stratum`, for a point on the
+    /// plain grid whose samples all lie above its horizon (then `at` would draw it): the same
+    /// target, without the horizon and shaft tests.
     #[inline]
     pub fn weight_at(&self, stratum: u32) -> f64 {
-        debug_assert!(self.warp.is_none());
+        debug_assert!(self.plain_grid());
         let (nx, ny) = self.strata;
         let (i, j) = (stratum % nx, stratum / nx);
         let mut rng = Rng::new(self.q.seed);
@@ -184,16 +209,35 @@ impl<'a> PointSamples<'a> {
         let leaf_clear = self.clear & shaft::leaf_bit(i, j, self.strata) != 0;
         let mut rng = Rng::new(self.q.seed);
         rng.skip(2 * stratum as u64);
-        self.draw(i, j, &mut rng, leaf_clear)
+        let by_g = self.by_g.as_ref().map(|g| {
+            let band = g.row(j, self.strata.1);
+            (band, g.columns(band))
+        });
+        self.draw(i, j, &mut rng, leaf_clear, by_g.as_ref())
     }
 
     /// The sample of stratum (i, j), the next one `rng` draws; `None` below the horizon.
+    /// `by_g`: row j's band and column CDF where the strata follow g.
     #[inline(always)]
-    fn draw(&self, i: u32, j: u32, rng: &mut Rng, leaf_clear: bool) -> Option<LightSample> {
+    fn draw(
+        &self,
+        i: u32,
+        j: u32,
+        rng: &mut Rng,
+        leaf_clear: bool,
+        by_g: Option<&([f32; 2], Columns)>,
+    ) -> Option<LightSample> {
         let (light, point, warp) = (&self.light, &self.q.point, &self.warp);
         let (nx, ny) = self.strata;
-        let mut a = (i as f32 + rng.next_f32()) / nx as f32;
-        let mut b = (j as f32 + rng.next_f32()) / ny as f32;
+        let (mut a, mut b, scale) = if let Some((band, columns)) = by_g {
+            let (a0, a1) = (columns.at(i as f32 / nx as f32), columns.at((i + 1) as f32 / nx as f32));
+            let (u, v) = (rng.next_f32(), rng.next_f32());
+            let scale = (a1 - a0) * (band[1] - band[0]) * (nx * ny) as f32;
+            (a0 + u * (a1 - a0), band[0] + v * (band[1] - band[0]), scale)
+        } else {
+            let a = (i as f32 + rng.next_f32()) / nx as f32;
+            (a, (j as f32 + rng.next_f32()) / ny as f32, 1.0)
+        };
         if let Some(w) = warp {
             let (wa, wb) = w.map(a as f64, b as f64);
             (a, b) = (wa as f32, wb as f32);
@@ -209,9 +253,9 @@ impl<'a> PointSamples<'a> {
         // `max_point_error` bounds points with a, b in [0, 1] (a warped sample off the unit
         // square by a rounding is traced instead).
         let proven = leaf_clear
-            && (warp.is_none() || ((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)))
+            && (self.plain_grid() || ((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)))
             && self.cover.covers(height, w);
-        Some(LightSample { a, b, target, height, proven, stratum: i + nx * j })
+        Some(LightSample { a, b, target, height, proven, stratum: i + nx * j, scale })
     }
 
     /// Whether `s`'s shadow ray (`traced`'s own) meets triangle `slot`, alone.

@@ -75,7 +75,7 @@ fn wholly_above(light: &RectLight, q: &ShadowQuery, samples: &PointSamples) -> b
     let p = &q.point;
     let corners = light.corners();
     let far = corners.iter().map(|&c| (c - p.p).abs().element_sum()).fold(0.0, f32::max);
-    !samples.warped()
+    samples.plain_grid()
         && shaft::covers_light(p, samples.origin, light)
         && corners.iter().all(|&c| p.n_shading.dot(c - p.p) > 1e-4 * far)
 }
