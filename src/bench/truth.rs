@@ -22,7 +22,9 @@ use std::path::{Path, PathBuf};
 /// longer match.
 /// v2: the one rule for ray origins (each hit's own error bound) replaced the scene-scaled
 /// epsilon, and `traced` samples only the part of the light above the horizon.
-pub const TRUTH_VERSION: &str = "traced-v2";
+/// v3: V is the share of irradiance (samples weighed by g), with strata in proportion to g
+/// under near lights.
+pub const TRUTH_VERSION: &str = "traced-v3";
 
 /// Mixed into the seed, so the truth's light samples are independent of the swept
 /// `traced` runs' (which use the bench seed itself).

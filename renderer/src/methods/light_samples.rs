@@ -12,6 +12,7 @@ use crate::interface::shadowing::ShadowQuery;
 use crate::methods::irradiance_share::IrradianceShare;
 use crate::util::sampling::{Rng, strata};
 use glam::Vec3;
+use std::cell::OnceCell;
 
 /// Which shafts prove samples unblocked before any ray.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -53,9 +54,10 @@ pub struct PointSamples<'a> {
     q: &'a ShadowQuery,
     strata: (u32, u32),
     warp: Option<HorizonWarp>,
-    /// Strata in proportion to g, where it varies over the light (the whole light above the
-    /// horizon only).
-    by_g: Option<IrradianceStrata>,
+    /// The whole light above the horizon: the strata may follow g.
+    whole: bool,
+    /// Strata in proportion to g, where it varies over the light ([`PointSamples::by_g`]).
+    by_g: OnceCell<Option<IrradianceStrata>>,
     clear: u64,
     shaft_tests: u32,
     /// The origin of every ray above the geometric tangent plane (the shafts' apex).
@@ -79,14 +81,36 @@ impl<'a> PointSamples<'a> {
         // ([`crate::geometry::light_sampling::HorizonWarp`]): every sample counts. The whole light
         // above, or too thin a part above, keeps the plain grid (and its fallback below).
         let point = &q.point;
-        let (warp, by_g) = match HorizonPart::new(&light, point) {
-            HorizonPart::Clipped(w) => (Some(w), None),
-            HorizonPart::Whole => (None, IrradianceStrata::new(&light, point)),
-            HorizonPart::Degenerate => (None, None),
+        let (warp, whole) = match HorizonPart::new(&light, point) {
+            HorizonPart::Clipped(w) => (Some(w), false),
+            HorizonPart::Whole => (None, true),
+            HorizonPart::Degenerate => (None, false),
         };
+        // The origin every ray above the tangent plane starts from (the shafts' apex).
+        let origin = offset_origin(point, point.n_geom);
+        // Whether the strata follow g is decided when a sample is first drawn, unless the
+        // shafts' leaves need their bounds now ([`PointSamples::by_g`]): a point answered
+        // without drawing any (one ray, or every sample proven) never pays the test.
+        let by_g = OnceCell::new();
+        let follows_g = whole && culling == Culling::Leaves && IrradianceStrata::varies(&light, point);
+        // Strata following g cost a table (~1 us): a point whose whole light is proven clear
+        // answers 1 before it is built (the whole light's shaft is every grid's first test).
+        let mut root_tests = 0;
+        if follows_g {
+            let (clear, tests) =
+                shaft::clear_leaves_mapped(scene, &light, point, (nx, ny), false, |a, b| (a, b));
+            if clear != 0 && shaft::covers_light(point, origin, &light) {
+                return Err(1.0);
+            }
+            root_tests = tests;
+        }
+        if culling == Culling::Leaves {
+            let _ = by_g.set(if follows_g { IrradianceStrata::new(&light, point) } else { None });
+        }
         let (clear, shaft_tests) = if culling != Culling::Off {
             let subdivide = culling == Culling::Leaves;
-            match (&warp, &by_g) {
+            // Without subdividing, only the whole light is tested: the same for every grid.
+            match (&warp, by_g.get().and_then(Option::as_ref)) {
                 (None, None) => {
                     shaft::clear_leaves_mapped(scene, &light, point, (nx, ny), subdivide, |a, b| (a, b))
                 }
@@ -107,8 +131,7 @@ impl<'a> PointSamples<'a> {
         } else {
             (0, 0)
         };
-        // The origin every ray above the tangent plane starts from (the shafts' apex).
-        let origin = offset_origin(point, point.n_geom);
+        let shaft_tests = shaft_tests + root_tests;
         // The whole light proven clear and wholly covered: every counted sample is unblocked,
         // so the answer is 1 without drawing them. Measured: drawing 1024 samples per such
         // point cost ~10 us, most of a clear point's time.
@@ -123,7 +146,19 @@ impl<'a> PointSamples<'a> {
         // The strata cover the warped part, or the whole rectangle (measure-preserving).
         let part = warp.as_ref().map_or(1.0, |w| w.area());
         let share = IrradianceShare::new(&light, point, part, nx * ny);
-        Ok(PointSamples { light, q, strata: (nx, ny), warp, by_g, clear, shaft_tests, origin, cover, share })
+        Ok(PointSamples {
+            light,
+            q,
+            strata: (nx, ny),
+            warp,
+            whole,
+            by_g,
+            clear,
+            shaft_tests,
+            origin,
+            cover,
+            share,
+        })
     }
 
     /// The weights of these samples and the visibility they make ([`IrradianceShare`]).
@@ -134,7 +169,7 @@ impl<'a> PointSamples<'a> {
     /// `s`'s weight: g ([`IrradianceShare::weight`]) times its stratum's [`LightSample::scale`].
     #[inline]
     pub fn weight(&self, s: &LightSample) -> f64 {
-        self.share.weight(s.target) * s.scale as f64
+        self.share.weight_at(s.a, s.b) * s.scale as f64
     }
 
     /// Shafts tested, and leaves found clear.
@@ -153,7 +188,21 @@ impl<'a> PointSamples<'a> {
     /// of the light above the horizon, or follow g ([`IrradianceStrata`]): then a sample may
     /// lie anywhere, whatever its stratum.
     pub fn plain_grid(&self) -> bool {
-        self.warp.is_none() && self.by_g.is_none()
+        self.warp.is_none() && self.by_g().is_none()
+    }
+
+    /// The strata in proportion to g, where the whole light is above the horizon and g
+    /// varies over it ([`IrradianceStrata::new`]); decided once, on first use.
+    pub fn by_g(&self) -> Option<&IrradianceStrata> {
+        self.by_g
+            .get_or_init(|| if self.whole { IrradianceStrata::new(&self.light, &self.q.point) } else { None })
+            .as_ref()
+    }
+
+    /// Whether the strata are warped onto the part of the light above the horizon (the
+    /// whole light is sampled otherwise).
+    pub fn warped(&self) -> bool {
+        self.warp.is_some()
     }
 
     /// Calls `f` with every sample above the shading horizon, in `traced`'s order.
@@ -165,10 +214,11 @@ impl<'a> PointSamples<'a> {
         let mut rng = Rng::new(self.q.seed);
         for j in 0..ny {
             // Where the strata follow g: this row's band and column CDF, once per row.
-            let by_g = self.by_g.as_ref().map(|g| {
+            let by_g = self.by_g().map(|g| {
                 let band = g.row(j, ny);
                 (band, g.columns(band))
             });
+            let by_g = by_g.as_ref();
             // This row's clear leaves, as bits 0..lx; leaf column `x` holds samples
             // first(x) <= i < first(x + 1) ([`shaft::leaf_bit`], stepped instead of divided).
             let row_clear =
@@ -180,7 +230,13 @@ impl<'a> PointSamples<'a> {
                     next_col = shaft::first_stratum(col + 1, nx, lx);
                 }
                 debug_assert_eq!(row_clear & (1 << col) != 0, clear & shaft::leaf_bit(i, j, (nx, ny)) != 0);
-                if let Some(x) = self.draw(i, j, &mut rng, row_clear & (1 << col) != 0, by_g.as_ref()) {
+                let leaf_clear = row_clear & (1 << col) != 0;
+                // Two calls, so that the plain grid's loop carries no stratum bounds.
+                let x = match by_g {
+                    None => self.draw(i, j, &mut rng, leaf_clear, None),
+                    Some(g) => self.draw(i, j, &mut rng, leaf_clear, Some(g)),
+                };
+                if let Some(x) = x {
                     f(x);
                 }
             }
@@ -199,7 +255,7 @@ impl<'a> PointSamples<'a> {
         rng.skip(2 * stratum as u64);
         let a = (i as f32 + rng.next_f32()) / nx as f32;
         let b = (j as f32 + rng.next_f32()) / ny as f32;
-        self.share.weight(self.light.point(a, b))
+        self.share.weight_at(a, b)
     }
 
     /// The sample [`PointSamples::for_each`] draws for stratum `i + nx j`, alone (the
@@ -209,11 +265,14 @@ impl<'a> PointSamples<'a> {
         let leaf_clear = self.clear & shaft::leaf_bit(i, j, self.strata) != 0;
         let mut rng = Rng::new(self.q.seed);
         rng.skip(2 * stratum as u64);
-        let by_g = self.by_g.as_ref().map(|g| {
-            let band = g.row(j, self.strata.1);
-            (band, g.columns(band))
-        });
-        self.draw(i, j, &mut rng, leaf_clear, by_g.as_ref())
+        match self.by_g() {
+            // Two calls, so that the plain grid's draw carries no stratum bounds.
+            None => self.draw(i, j, &mut rng, leaf_clear, None),
+            Some(g) => {
+                let band = g.row(j, self.strata.1);
+                self.draw(i, j, &mut rng, leaf_clear, Some(&(band, g.columns(band))))
+            }
+        }
     }
 
     /// The sample of stratum (i, j), the next one `rng` draws; `None` below the horizon.

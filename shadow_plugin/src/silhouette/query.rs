@@ -75,7 +75,7 @@ fn wholly_above(light: &RectLight, q: &ShadowQuery, samples: &PointSamples) -> b
     let p = &q.point;
     let corners = light.corners();
     let far = corners.iter().map(|&c| (c - p.p).abs().element_sum()).fold(0.0, f32::max);
-    samples.plain_grid()
+    !samples.warped()
         && shaft::covers_light(p, samples.origin, light)
         && corners.iter().all(|&c| p.n_shading.dot(c - p.p) > 1e-4 * far)
 }
@@ -297,7 +297,7 @@ fn test_mixed(
     plugin.counters.alpha_tests.fetch_add(tests, Ordering::Relaxed);
 }
 
-/// [`count`] cell by cell ([`super::cells`]), for a point [`wholly_above`] with no flagged
+/// [`count`] cell by cell ([`super::cells`]), for a point [`wholly_above`] on the plain strata grid with no flagged
 /// triangle in its shaft and its edges in `s`: `None` if a sample it draws falls below the
 /// shading horizon after all (then the samples are drawn and counted one by one).
 fn count_cells(
@@ -382,7 +382,11 @@ fn count_cells(
     c.samples_uncertain.fetch_add(uncertain, Ordering::Relaxed);
     // Every cell's sample lies above the horizon here (`at` answered each one drawn, and
     // the others by `wholly_above`'s margin) and the strata are not warped: `weight_at`.
-    Ok(Some(share(samples, &s.lit, cells as u32, visible, |k| samples.weight_at(k as u32))))
+    // A cell some edge tested holds its sample's coordinates already: no second draw.
+    let (drawn, a, b) = (&s.drawn, &s.a, &s.b);
+    let weight =
+        |k: usize| if drawn[k] { samples.share().weight_at(a[k], b[k]) } else { samples.weight_at(k as u32) };
+    Ok(Some(share(samples, &s.lit, cells as u32, visible, weight)))
 }
 
 /// Verdicts packed into bit words (bit k: sample k unblocked), a register word at a time: a
@@ -464,6 +468,7 @@ pub(super) fn count(
             return Ok(v);
         }
         if gathered
+            && samples.plain_grid()
             && s.regions.is_empty()
             && let Some(v) = count_cells(plugin, scene, samples, s)?
         {
