@@ -207,18 +207,32 @@ impl<'a> PointSamples<'a> {
 
     /// Calls `f` with every sample above the shading horizon, in `traced`'s order.
     #[inline(always)]
-    pub fn for_each(&self, mut f: impl FnMut(LightSample)) {
+    pub fn for_each(&self, f: impl FnMut(LightSample)) {
+        // One loop per kind of strata, so that the plain grid's carries no stratum bounds
+        // (a branch per sample cost `traced` 13% and `silhouette` 10% on some scenes).
+        match self.by_g() {
+            None => self.for_each_in(f, |_, _| None),
+            Some(g) => self.for_each_in(f, |j, ny| {
+                let band = g.row(j, ny);
+                Some((band, g.columns(band)))
+            }),
+        }
+    }
+
+    /// [`PointSamples::for_each`] with `row(j, ny)` giving row j's band and column CDF where
+    /// the strata follow g (once per row).
+    #[inline(always)]
+    fn for_each_in(
+        &self,
+        mut f: impl FnMut(LightSample),
+        row: impl Fn(u32, u32) -> Option<([f32; 2], Columns)>,
+    ) {
         let clear = self.clear;
         let (nx, ny) = self.strata;
         let (lx, ly) = shaft::leaves_per_axis((nx, ny));
         let mut rng = Rng::new(self.q.seed);
         for j in 0..ny {
-            // Where the strata follow g: this row's band and column CDF, once per row.
-            let by_g = self.by_g().map(|g| {
-                let band = g.row(j, ny);
-                (band, g.columns(band))
-            });
-            let by_g = by_g.as_ref();
+            let by_g = row(j, ny);
             // This row's clear leaves, as bits 0..lx; leaf column `x` holds samples
             // first(x) <= i < first(x + 1) ([`shaft::leaf_bit`], stepped instead of divided).
             let row_clear =
@@ -230,13 +244,7 @@ impl<'a> PointSamples<'a> {
                     next_col = shaft::first_stratum(col + 1, nx, lx);
                 }
                 debug_assert_eq!(row_clear & (1 << col) != 0, clear & shaft::leaf_bit(i, j, (nx, ny)) != 0);
-                let leaf_clear = row_clear & (1 << col) != 0;
-                // Two calls, so that the plain grid's loop carries no stratum bounds.
-                let x = match by_g {
-                    None => self.draw(i, j, &mut rng, leaf_clear, None),
-                    Some(g) => self.draw(i, j, &mut rng, leaf_clear, Some(g)),
-                };
-                if let Some(x) = x {
+                if let Some(x) = self.draw(i, j, &mut rng, row_clear & (1 << col) != 0, by_g.as_ref()) {
                     f(x);
                 }
             }
