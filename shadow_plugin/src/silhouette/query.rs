@@ -114,14 +114,11 @@ fn relative_counts(
     above_gathered: bool,
 ) -> Result<[Option<i32>; 2], Fallback> {
     s.samples.clear();
+    samples.collect_into(&mut s.samples);
+    // The counting's rows hold samples on the light only (a proven one off it, if f32
+    // rounding ever put one there, is traced too).
     s.uncertain.clear();
-    samples.for_each(|x| {
-        // The counting's rows hold samples on the light only (a proven one off it, if f32
-        // rounding ever put one there, is traced too).
-        let inside = (0.0..=1.0).contains(&x.a) && (0.0..=1.0).contains(&x.b);
-        s.uncertain.push(!inside);
-        s.samples.push(x);
-    });
+    s.uncertain.extend(s.samples.iter().map(|x| !((0.0..=1.0).contains(&x.a) && (0.0..=1.0).contains(&x.b))));
     s.rel.clear();
     s.rel.resize(s.samples.len(), 0);
     s.mixed.clear();
