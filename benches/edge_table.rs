@@ -352,6 +352,7 @@ fn default_scene() -> (Scene, Vec<ShadingPoint>, Vec<ShadowQuery>) {
                     point: hit.point,
                     pixel: [x, y],
                     seed: stream_seed(&[0, (y * w + x) as u64, 0, 0, 2]),
+                    irradiance: 0.0,
                 });
             }
         }

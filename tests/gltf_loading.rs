@@ -502,6 +502,7 @@ fn floor_visibility(scene: &Scene, points: &[DVec3]) -> Vec<f32> {
                 },
                 pixel: [0, 0],
                 seed: 0x9e37_79b9 + i as u64,
+                irradiance: 0.0,
             };
             traced.visibility(scene, &q)
         })

@@ -70,7 +70,7 @@ fn prepared(scene: &Scene) -> Traced {
 fn traced_v(t: &Traced, scene: &Scene, (x, z): (f64, f64), seed: u64) -> f64 {
     let p = Vec3::new(x as f32, 0.0, z as f32);
     let point = ShadingPoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: Vec3::Y };
-    t.visibility(scene, &ShadowQuery { point, pixel: [0, 0], seed }) as f64
+    t.visibility(scene, &ShadowQuery { point, pixel: [0, 0], seed, irradiance: 0.0 }) as f64
 }
 
 /// The integral of g = cos cos / r^2 over rectangle `r` of the light's plane (y = h) from the

@@ -283,7 +283,7 @@ mod tests {
                 n_shading: Vec3::Y,
             };
             followed += IrradianceStrata::new(&s.lights[0], &point).is_some() as usize;
-            let q = ShadowQuery { point, pixel: [0, 0], seed: k };
+            let q = ShadowQuery { point, pixel: [0, 0], seed: k, irradiance: 0.0 };
             let (a, b) = (plain.visibility(&s, &q), culled.visibility(&s, &q));
             assert_eq!(a.to_bits(), b.to_bits(), "point {p}: plain {a} culled {b}");
             partial += usize::from(a > 0.0 && a < 1.0);

@@ -453,6 +453,7 @@ mod traced_tests {
             },
             pixel: [0, 0],
             seed,
+            irradiance: 0.0,
         }
     }
 
@@ -568,6 +569,7 @@ mod traced_tests {
                 },
                 pixel: [0, 0],
                 seed: k,
+                irradiance: 0.0,
             };
             if !matches!(HorizonPart::new(&s.lights[0], &q.point), HorizonPart::Clipped(_)) {
                 continue;

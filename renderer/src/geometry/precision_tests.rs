@@ -97,7 +97,7 @@ fn prepared(scene: &Scene, params: TracedParams) -> Traced {
 
 /// `traced` (plain and shaft-culled, 256 samples) at a hit: both answers, which must agree.
 fn traced_at(scene: &Scene, hit: &SurfaceHit, seed: u64) -> f32 {
-    let q = ShadowQuery { point: hit.point, pixel: [0, 0], seed };
+    let q = ShadowQuery { point: hit.point, pixel: [0, 0], seed, irradiance: 0.0 };
     let plain = prepared(scene, TracedParams::plain(256)).visibility(scene, &q);
     let culled = prepared(scene, TracedParams::new(256)).visibility(scene, &q);
     assert_eq!(plain.to_bits(), culled.to_bits(), "plain {plain} culled {culled} at {}", hit.point.p);

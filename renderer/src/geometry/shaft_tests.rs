@@ -99,6 +99,7 @@ fn culling_gives_the_plain_traced_bits() {
                 },
                 pixel: [0, 0],
                 seed: k,
+                irradiance: 0.0,
             }
         } else {
             let p = Vec3::new(r(-3.0, 3.0), 0.0, r(-3.0, 3.0));
@@ -109,6 +110,7 @@ fn culling_gives_the_plain_traced_bits() {
                 point: ShadingPoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: n },
                 pixel: [0, 0],
                 seed: k,
+                irradiance: 0.0,
             }
         };
         let (p, n) = (q.point.p, q.point.n_shading);
@@ -210,6 +212,7 @@ fn a_long_thin_shaft_is_not_proven_clear_through_a_blocker() {
         point: ShadingPoint { p, p_error: point_error(p), n_geom: Vec3::Y, n_shading: Vec3::Y },
         pixel: [0, 0],
         seed: 1,
+        irradiance: 0.0,
     };
     let (a, b) = (plain.visibility(&s, &q), culled.visibility(&s, &q));
     assert_eq!(a, 0.0);
@@ -263,6 +266,7 @@ fn a_ceiling_flush_with_the_light_is_not_separated_from_grazing_rays() {
                 point: ShadingPoint { p, p_error: point_error(p), n_geom: n, n_shading: n },
                 pixel: [0, 0],
                 seed: k,
+                irradiance: 0.0,
             };
             differ += usize::from(plain.visibility(&s, &q).to_bits() != culled.visibility(&s, &q).to_bits());
         }

@@ -111,11 +111,12 @@ pub fn shadow_query(
     id: &PathId,
     k: usize,
     vertex: u32,
+    irradiance: f32,
     stats: &mut [VertexQueries],
 ) -> f32 {
     let method = ctx.methods[k].as_ref();
-    let q =
-        ShadowQuery { point: *point, pixel: id.pixel, seed: id.shadow_seed(k, vertex, method.seed_salt()) };
+    let seed = id.shadow_seed(k, vertex, method.seed_salt());
+    let q = ShadowQuery { point: *point, pixel: id.pixel, seed, irradiance };
     let (t0, w0) = (ctx.profile.then(Instant::now), Work::now());
     let v = method.visibility(ctx.scene, &q);
     debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", method.name());
@@ -178,7 +179,7 @@ pub fn indirect(
             if e <= 0.0 {
                 continue;
             }
-            let v = shadow_query(ctx, &next.point, id, k, vertex, stats);
+            let v = shadow_query(ctx, &next.point, id, k, vertex, e, stats);
             direct += light.radiance * (e * v);
         }
         l += beta * a * direct * std::f32::consts::FRAC_1_PI;

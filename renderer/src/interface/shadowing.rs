@@ -40,6 +40,11 @@ pub struct ShadowQuery {
     /// Seed of this point's random stream: a pure function of (frame seed, pixel, primary
     /// sample, light), never of the thread.
     pub seed: u64,
+    /// The light's unshadowed irradiance at the point over its radiance
+    /// ([`crate::RectLight::irradiance_factor`]), as the shading computed it, or 0 where the
+    /// caller did not: the denominator of V's share of irradiance, which a method then
+    /// computes itself ([`crate::methods::irradiance_share`]).
+    pub irradiance: f32,
 }
 
 /// Why `prepare` could not build a method's structures.

@@ -153,7 +153,7 @@ impl<'a> PointSamples<'a> {
         let cover = shaft::Cover::new(point, origin, light.max_point_error());
         // The strata cover the warped part, or the whole rectangle (measure-preserving).
         let part = warp.as_ref().map_or(1.0, |w| w.area());
-        let share = IrradianceShare::new(&light, point, part, nx * ny);
+        let share = IrradianceShare::new(&light, q, part, nx * ny);
         Ok(PointSamples {
             light,
             q,

@@ -349,6 +349,7 @@ mod tests {
             },
             pixel: [0, 0],
             seed,
+            irradiance: 0.0,
         }
     }
 
@@ -430,6 +431,7 @@ mod tests {
             },
             pixel: [0, 0],
             seed: 3,
+            irradiance: 0.0,
         };
         assert_eq!(t.visibility(&scene, &q), 1.0);
     }

@@ -468,7 +468,7 @@ fn share_of_irradiance(
 ) -> f32 {
     let n_above = bits::count(above);
     let blocked = n_above - unblocked;
-    let share = IrradianceShare::new(light, &q.point, 1.0, m.mask.samples.len() as u32);
+    let share = IrradianceShare::new(light, q, 1.0, m.mask.samples.len() as u32);
     let mut smaller = 0.0;
     if blocked != 0 && unblocked != 0 {
         let weigh_open = !IrradianceShare::weigh_blocked(n_above, blocked);

@@ -281,7 +281,7 @@ fn share_of_irradiance(
     let blocked = n_above - lit;
     let size = 2.0 * frame.half_size;
     let light = RectLight::new(frame.origin, frame.x * size.x, frame.y * size.y, Vec3::ONE);
-    let share = IrradianceShare::new(&light, &q.point, 1.0, taps.len() as u32);
+    let share = IrradianceShare::new(&light, q, 1.0, taps.len() as u32);
     let mut smaller = 0.0;
     if blocked != 0 && lit != 0 {
         let weigh_open = !IrradianceShare::weigh_blocked(n_above, blocked);

@@ -42,6 +42,7 @@ fn query(p: Vec3, seed: u64) -> ShadowQuery {
         point: ShadingPoint { p, p_error: point_error(p), n_geom: -Vec3::Z, n_shading: -Vec3::Z },
         pixel: [0, 0],
         seed,
+        irradiance: 0.0,
     }
 }
 
@@ -91,6 +92,7 @@ fn tilted_query(g: Vec2, seed: u64) -> ShadowQuery {
         point: ShadingPoint { p, p_error: point_error(p), n_geom: n, n_shading: n },
         pixel: [0, 0],
         seed,
+        irradiance: 0.0,
     }
 }
 
@@ -260,6 +262,7 @@ fn pcss_lit_tilted_floor_from_a_built_map_is_exactly_one() {
             point: ShadingPoint { p: vp.p, p_error: vp.p_error, n_geom: Vec3::Y, n_shading: Vec3::Y },
             pixel: [0, 0],
             seed: k as u64,
+            irradiance: 0.0,
         };
         assert_eq!(m.visibility(&scene, &q), 1.0, "floor point {}", vp.p);
     }
