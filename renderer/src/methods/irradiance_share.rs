@@ -135,6 +135,38 @@ impl IrradianceShare {
     }
 }
 
+impl IrradianceShare {
+    /// V from bit words over a point's samples, `(counted, unblocked)` per word (bit k of
+    /// word w: sample 64 w + k), the smaller set weighed by `weight(k)` in sample order: for
+    /// methods that settle every sample before weighing any (`silhouette`, the exact
+    /// `edge_table`, `pcss`).
+    #[inline]
+    pub fn visibility_from_bits(
+        &self,
+        words: impl Iterator<Item = (u64, u64)> + Clone,
+        mut weight: impl FnMut(usize) -> f64,
+    ) -> f32 {
+        let (mut counted, mut visible) = (0u32, 0u32);
+        for (c, open) in words.clone() {
+            counted += c.count_ones();
+            visible += (c & open).count_ones();
+        }
+        let blocked = counted - visible;
+        let mut smaller = 0.0;
+        if blocked != 0 && visible != 0 {
+            let weigh_blocked = Self::weigh_blocked(counted, blocked);
+            for (w, (c, open)) in words.enumerate() {
+                let mut set = if weigh_blocked { c & !open } else { c & open };
+                while set != 0 {
+                    smaller += weight(64 * w + set.trailing_zeros() as usize);
+                    set &= set - 1;
+                }
+            }
+        }
+        self.visibility(counted, blocked, smaller)
+    }
+}
+
 /// Verdicts counted and weighed as they come, for a method that learns every sample's
 /// verdict in stratum order (`traced`): both sets are summed, the smaller one is used.
 #[derive(Debug, Default, Clone, Copy)]

@@ -216,10 +216,27 @@ impl<'a> PointSamples<'a> {
     /// Calls `f` with every sample above the shading horizon, in `traced`'s order.
     #[inline(always)]
     pub fn for_each(&self, mut f: impl FnMut(LightSample)) {
-        // A row's samples are drawn into a buffer by a loop for the plain grid or one for
-        // strata following g (a branch per sample cost `traced` 13% and `silhouette` 10% on
-        // some scenes), then `f` is called from this one place: a closure called from two
-        // loops was left out of line (`traced` 25% slower on the default scene).
+        self.rows(|row| {
+            for &x in row {
+                f(x);
+            }
+        });
+    }
+
+    /// Every sample above the shading horizon appended to `out`, in `traced`'s order
+    /// ([`PointSamples::for_each`] without a call per sample).
+    pub fn collect_into(&self, out: &mut Vec<LightSample>) {
+        out.reserve((self.strata.0 * self.strata.1) as usize);
+        self.rows(|row| out.extend_from_slice(row));
+    }
+
+    /// Calls `each` with every row's samples above the shading horizon, in order. A row is
+    /// drawn into a buffer by a loop for the plain grid or one for strata following g (a
+    /// branch per sample cost `traced` 13% and `silhouette` 10% on some scenes), and `each`
+    /// is called from this one place: a closure called from two loops was left out of line
+    /// (`traced` 25% slower on the default scene).
+    #[inline(always)]
+    fn rows(&self, mut each: impl FnMut(&[LightSample])) {
         let by_g = self.by_g();
         let (nx, ny) = self.strata;
         let mut rng = Rng::new(self.q.seed);
@@ -233,29 +250,7 @@ impl<'a> PointSamples<'a> {
                 }
             };
             debug_assert!(n <= nx as usize);
-            for &x in &row[..n] {
-                f(x);
-            }
-        }
-    }
-
-    /// Every sample above the shading horizon appended to `out`, in `traced`'s order
-    /// ([`PointSamples::for_each`] without a call per sample).
-    pub fn collect_into(&self, out: &mut Vec<LightSample>) {
-        let by_g = self.by_g();
-        let (nx, ny) = self.strata;
-        out.reserve((nx * ny) as usize);
-        let mut rng = Rng::new(self.q.seed);
-        let mut row = [EMPTY_SAMPLE; MAX_ROW];
-        for j in 0..ny {
-            let n = match by_g {
-                None => self.draw_row(j, &mut rng, None, &mut row),
-                Some(g) => {
-                    let band = g.row(j, ny);
-                    self.draw_row(j, &mut rng, Some(&(band, g.columns(band))), &mut row)
-                }
-            };
-            out.extend_from_slice(&row[..n]);
+            each(&row[..n]);
         }
     }
 

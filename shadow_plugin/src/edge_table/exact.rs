@@ -466,20 +466,11 @@ fn share_of_irradiance(
     open: &[u64],
     unblocked: u32,
 ) -> f32 {
-    let n_above = bits::count(above);
-    let blocked = n_above - unblocked;
+    debug_assert_eq!(bits::count_and(above, open), unblocked);
     let share = IrradianceShare::new(light, q, 1.0, m.mask.samples.len() as u32);
-    let mut smaller = 0.0;
-    if blocked != 0 && unblocked != 0 {
-        let weigh_open = !IrradianceShare::weigh_blocked(n_above, blocked);
-        for (k, (&above, &open)) in above.iter().zip(open).enumerate() {
-            let mut set = if weigh_open { open } else { above & !open };
-            while set != 0 {
-                let [a, b] = m.ab[k * 64 + set.trailing_zeros() as usize];
-                set &= set - 1;
-                smaller += share.weight(light.point(a, b));
-            }
-        }
-    }
-    share.visibility(n_above, blocked, smaller)
+    let words = above.iter().copied().zip(open.iter().copied());
+    share.visibility_from_bits(words, |k| {
+        let [a, b] = m.ab[k];
+        share.weight(light.point(a, b))
+    })
 }

@@ -277,24 +277,12 @@ fn share_of_irradiance(
     open: &[u64],
     lit: u32,
 ) -> f32 {
-    let n_above = bits::count(above);
-    let blocked = n_above - lit;
+    debug_assert_eq!(bits::count_and(above, open), lit);
     let size = 2.0 * frame.half_size;
     let light = RectLight::new(frame.origin, frame.x * size.x, frame.y * size.y, Vec3::ONE);
     let share = IrradianceShare::new(&light, q, 1.0, taps.len() as u32);
-    let mut smaller = 0.0;
-    if blocked != 0 && lit != 0 {
-        let weigh_open = !IrradianceShare::weigh_blocked(n_above, blocked);
-        for (k, (&above, &open)) in above.iter().zip(open).enumerate() {
-            let mut set = if weigh_open { open } else { above & !open };
-            while set != 0 {
-                let s = taps[k * 64 + set.trailing_zeros() as usize];
-                set &= set - 1;
-                smaller += share.weight(frame.world_from_light(s.extend(0.0)));
-            }
-        }
-    }
-    share.visibility(n_above, blocked, smaller)
+    let words = above.iter().copied().zip(open.iter().copied());
+    share.visibility_from_bits(words, |k| share.weight(frame.world_from_light(taps[k].extend(0.0))))
 }
 
 impl LightShadowing for Pcss {

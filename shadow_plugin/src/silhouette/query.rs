@@ -9,7 +9,6 @@ use glam::{DVec2, Vec3};
 use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;
 use renderer::geometry::shaft::{self, Shaft};
-use renderer::methods::irradiance_share::IrradianceShare;
 use renderer::methods::light_samples::{LightSample, PointSamples};
 use renderer::{RectLight, Scene, ShadowQuery};
 use std::sync::atomic::Ordering;
@@ -371,7 +370,7 @@ fn count_cells(
         };
         verdicts.push(open);
     }
-    let visible = verdicts.finish();
+    verdicts.finish();
     if lit.is_none() && uncertain < cells as u64 {
         c.points_umbra.fetch_add(1, Ordering::Relaxed);
     }
@@ -383,7 +382,7 @@ fn count_cells(
     let (drawn, a, b) = (&s.drawn, &s.a, &s.b);
     let weight =
         |k: usize| if drawn[k] { samples.share().weight_at(a[k], b[k]) } else { samples.weight_at(k as u32) };
-    Ok(Some(share(samples, &s.lit, cells as u32, visible, weight)))
+    Ok(Some(share(samples, &s.lit, cells as u32, weight)))
 }
 
 /// Verdicts packed into bit words (bit k: sample k unblocked), a register word at a time: a
@@ -393,19 +392,17 @@ struct Verdicts<'a> {
     words: &'a mut Vec<u64>,
     word: u64,
     bit: u32,
-    ones: u32,
 }
 
 impl<'a> Verdicts<'a> {
     fn new(words: &'a mut Vec<u64>) -> Self {
         words.clear();
-        Verdicts { words, word: 0, bit: 0, ones: 0 }
+        Verdicts { words, word: 0, bit: 0 }
     }
 
     #[inline(always)]
     fn push(&mut self, open: bool) {
         self.word |= (open as u64) << self.bit;
-        self.ones += open as u32;
         self.bit += 1;
         if self.bit == 64 {
             self.words.push(self.word);
@@ -413,41 +410,24 @@ impl<'a> Verdicts<'a> {
         }
     }
 
-    /// The count of unblocked samples.
-    fn finish(self) -> u32 {
+    /// Stores the last, partial word.
+    fn finish(self) {
         if self.bit > 0 {
             self.words.push(self.word);
         }
-        self.ones
     }
 }
 
 /// V from the counted samples' verdicts (bit k of `open`: sample k unblocked), in stratum
-/// order ([`IrradianceShare`]): only the smaller set's weights, from `weight`, and none at a
-/// point with nothing blocked or nothing visible.
-fn share(
-    samples: &PointSamples,
-    open: &[u64],
-    counted: u32,
-    visible: u32,
-    weight: impl Fn(usize) -> f64,
-) -> f32 {
-    let blocked = counted - visible;
-    let mut smaller = 0.0;
-    if blocked != 0 && visible != 0 {
-        let weigh_open = !IrradianceShare::weigh_blocked(counted, blocked);
-        for (w, &bits) in open.iter().enumerate() {
-            // The blocked ones: the clear bits among the counted samples of this word.
-            let in_word = (counted as usize - 64 * w).min(64);
-            let counted_bits = if in_word == 64 { !0 } else { (1u64 << in_word) - 1 };
-            let mut set = if weigh_open { bits } else { !bits & counted_bits };
-            while set != 0 {
-                smaller += weight(64 * w + set.trailing_zeros() as usize);
-                set &= set - 1;
-            }
-        }
-    }
-    samples.share().visibility(counted, blocked, smaller)
+/// order ([`renderer::methods::irradiance_share::IrradianceShare::visibility_from_bits`]): only the smaller set's weights, from
+/// `weight`, and none at a point with nothing blocked or nothing visible.
+fn share(samples: &PointSamples, open: &[u64], counted: u32, weight: impl FnMut(usize) -> f64) -> f32 {
+    let counted_bits = move |w: usize| match (counted as usize).saturating_sub(64 * w) {
+        n if n >= 64 => !0u64,
+        n => (1u64 << n) - 1,
+    };
+    let words = open.iter().enumerate().map(move |(w, &bits)| (counted_bits(w), bits));
+    samples.share().visibility_from_bits(words, weight)
 }
 
 /// The visibility of `q` from its silhouette edges, or why the point must be traced whole.
@@ -491,13 +471,13 @@ pub(super) fn count(
             };
             verdicts.push(open);
         }
-        let visible = verdicts.finish();
+        verdicts.finish();
         if lit == [None; 2] && uncertain < s.samples.len() as u64 {
             c.points_umbra.fetch_add(1, Ordering::Relaxed);
         }
         c.rays.fetch_add(rays, Ordering::Relaxed);
         c.samples_uncertain.fetch_add(uncertain, Ordering::Relaxed);
-        Ok(share(samples, &s.lit, s.samples.len() as u32, visible, |k| samples.weight(&s.samples[k])))
+        Ok(share(samples, &s.lit, s.samples.len() as u32, |k| samples.weight(&s.samples[k])))
     })
 }
 
