@@ -26,8 +26,9 @@ pub enum Culling {
 }
 
 /// The most samples in a row of strata: nx is at most the square root of
-/// [`crate::methods::traced::MAX_TRACED_SAMPLES`].
+/// [`crate::methods::traced::MAX_TRACED_SAMPLES`], which `Traced::prepare` enforces.
 const MAX_ROW: usize = 256;
+const _: () = assert!(MAX_ROW * MAX_ROW >= crate::methods::traced::MAX_TRACED_SAMPLES as usize);
 
 /// A placeholder for [`PointSamples::for_each`]'s row buffer.
 const EMPTY_SAMPLE: LightSample =

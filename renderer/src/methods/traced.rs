@@ -248,6 +248,12 @@ impl LightShadowing for Traced {
         if self.params.samples == 0 {
             return Err(ShadowError { method: "traced", message: "samples must be >= 1".into() });
         }
+        // A row of strata holds at most sqrt(MAX_TRACED_SAMPLES) samples (the sample
+        // stream's row buffer is that long).
+        if self.params.samples > MAX_TRACED_SAMPLES {
+            let message = format!("samples must be <= {MAX_TRACED_SAMPLES}, not {}", self.params.samples);
+            return Err(ShadowError { method: "traced", message });
+        }
         self.light = Some(*ctx.light);
         Ok(())
     }
@@ -413,6 +419,23 @@ mod tests {
             // ~ N^-3/4, so from N = 16 to 1024 the RMS error falls by ~22x; require 4x.
             assert!(rmse_by_n[4] * 4.0 < rmse_by_n[1], "x0 {x0}: rmse {rmse_by_n:?}");
         }
+    }
+
+    #[test]
+    fn sample_counts_past_the_limit_are_refused_at_prepare() {
+        let scene = quads_scene(&[FLOOR], unit_light_at(2.0));
+        let ctx = PrepareContext {
+            scene: &scene,
+            light: &scene.lights[0],
+            light_index: 0,
+            visible: &[],
+            seed: 0,
+            memory_budget_bytes: u64::MAX,
+        };
+        let mut over = Traced::new(TracedParams::new(MAX_TRACED_SAMPLES + 1));
+        let err = over.prepare(&ctx).unwrap_err();
+        assert!(err.message.contains("65536"), "{err}");
+        assert!(Traced::new(TracedParams::new(MAX_TRACED_SAMPLES)).prepare(&ctx).is_ok());
     }
 
     #[test]
