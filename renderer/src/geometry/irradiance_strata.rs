@@ -109,8 +109,12 @@ impl IrradianceStrata {
                 sum += wi * wj * v;
             }
         }
-        let to_point = point.p - light.center;
-        let foot = |edge: Vec3| (to_point.dot(edge) / edge.length_squared() + 0.5).clamp(0.0, 1.0);
+        // In f64: a light 1e20 m across overflows f32's squared edge.
+        let to_point = point.p.as_dvec3() - light.center.as_dvec3();
+        let foot = |edge: Vec3| {
+            let edge = edge.as_dvec3();
+            (to_point.dot(edge) / edge.length_squared() + 0.5).clamp(0.0, 1.0) as f32
+        };
         let peak = peak.max(g(light.point(foot(light.u), foot(light.v))));
         let mean = sum / 36.0;
         mean > 0.0 && peak.is_finite() && peak as f64 > PEAK_OVER_MEAN * mean as f64
@@ -292,6 +296,30 @@ mod tests {
         assert!(followed > 300, "only {followed} points follow g");
         assert!(partial > 40, "{partial} in penumbra");
         assert!(rays(&culled) * 2 < rays(&plain), "culled {} plain {}", rays(&culled), rays(&plain));
+    }
+
+    /// The decision is the same at every scale a scene may have (a light 1e20 m across
+    /// overflowed f32's squared edge at the point's foot).
+    #[test]
+    fn the_decision_does_not_depend_on_the_scene_scale() {
+        for h in [0.05f32, 0.1, 0.15, 0.3, 1.0] {
+            let at = |sc: f32| {
+                let light =
+                    RectLight::new(Vec3::new(0.0, 2.0, 0.0) * sc, Vec3::X * sc, Vec3::Z * sc, Vec3::ONE);
+                let p = Vec3::new(-0.25, 2.0 - h, -0.25) * sc;
+                let point = ShadingPoint {
+                    p,
+                    p_error: crate::geometry::ray_origin::point_error(p),
+                    n_geom: Vec3::Y,
+                    n_shading: Vec3::Y,
+                };
+                IrradianceStrata::varies(&light, &point)
+            };
+            let unit = at(1.0);
+            for sc in [1e-20, 1e19, 1e20] {
+                assert_eq!(at(sc), unit, "h {h} scale {sc}");
+            }
+        }
     }
 
     #[test]
