@@ -104,7 +104,7 @@ impl IrradianceShare {
 
     /// Whether the blocked samples are the set to weigh: at most half of those counted.
     #[inline]
-    pub fn weigh_blocked(counted: u32, blocked: u32) -> bool {
+    fn weigh_blocked(counted: u32, blocked: u32) -> bool {
         2 * blocked as u64 <= counted as u64
     }
 
