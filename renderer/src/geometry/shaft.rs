@@ -188,36 +188,7 @@ impl Shaft {
         // from the apex) lies far inside each test's own f32 rounding of that distance. A far
         // triangle once widened every shaft (a 1 m quad at 10^6 m: 13.5x the rays).
         let slack = 3.0 * e_light + gamma(16) * reach + gamma(32) * apex.abs().max_element();
-        // Unused faces (the depth clips until set) have a zero normal and an infinite offset:
-        // nothing is outside them.
-        let mut faces =
-            [Face { normal: Vec3A::ZERO, anchor: Vec3A::ZERO, offset: f32::INFINITY, slack: 0.0 }; 8];
-        // Orientation: the centre of the hull is inside every side face.
-        let centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
-        let inner = Vec3A::from(0.2 * apex + 0.8 * centre);
-        for i in 0..4 {
-            let (a, b) = (Vec3A::from(corners[i]), Vec3A::from(corners[(i + 1) % 4]));
-            // The light edge crossed with the long edge to the apex: two well-separated
-            // directions. Any direction is a valid axis: the offset below is the hull's own
-            // largest projection on it, so the normal's rounding costs nothing.
-            let mut n = (b - a).cross(apex_a - a);
-            let len = n.length();
-            if !is_positive(len) || !len.is_finite() {
-                return None;
-            }
-            n /= len;
-            if n.dot(inner - a) > 0.0 {
-                n = -n;
-            }
-            let offset = hull
-                .iter()
-                .map(|&v| {
-                    let w = v - apex_a;
-                    n.dot(w) + gamma(5) * n.abs().dot(w.abs())
-                })
-                .fold(f32::NEG_INFINITY, f32::max);
-            faces[i] = Face { normal: n, anchor: apex_a, offset, slack };
-        }
+        let mut faces = side_faces(&hull, slack)?;
         // The light's plane: inside is n_light . (x - centre) >= in_front.
         let n_light = Vec3A::from(light.normal);
         faces[4] = Face { normal: -n_light, anchor: light.center.into(), offset: -in_front, slack: 0.0 };
@@ -229,6 +200,38 @@ impl Shaft {
         // from the origin (then the shaft is not clear and the rays are traced).
         let n = Vec3A::from(n_geom);
         faces[5] = Face { normal: -n, anchor: p.into(), offset: -(h_o * (1.0 - gamma(8))), slack: 0.0 };
+        Some(Shaft { faces, vertices: hull, slack })
+    }
+
+    /// The hull of a ball (`centre`, `radius`) and the light, without a cut: it holds the
+    /// hull [`Shaft::without_cut`] of every apex inside the ball (the radius is in every
+    /// separating axis's slack; the light's face is where the ball's lowest point would put
+    /// it), so what it cannot separate is a superset of what any of theirs cannot.
+    /// For queries shared by neighbouring points. `None` where the ball is not clearly in
+    /// front of the light.
+    pub fn around_ball(light: &RectLight, centre: Vec3, radius: f32) -> Option<Shaft> {
+        if !is_positive(light.area()) || radius.is_nan() || radius < 0.0 {
+            return None;
+        }
+        let corners =
+            [light.point(0.0, 0.0), light.point(1.0, 0.0), light.point(1.0, 1.0), light.point(0.0, 1.0)];
+        let e_light = light.max_point_error().element_sum();
+        let reach =
+            corners.iter().map(|&c| (c - centre).abs().element_sum()).fold(0.0, f32::max) + 2.0 * radius;
+        let height = light.normal.dot(centre - light.center) - radius;
+        let in_front = 0.5 * SHADOW_EPSILON * height;
+        if !is_positive(in_front - 2.0 * gamma(8) * reach) || !reach.is_finite() {
+            return None;
+        }
+        let c = Vec3A::from(centre);
+        let hull = [c, corners[0].into(), corners[1].into(), corners[2].into(), corners[3].into()];
+        let magnitude = centre.abs().max_element() + radius;
+        // The radius in the slack: every separating axis (side faces, a triangle's plane)
+        // then allows for the ball (a unit normal's rounding: 1e-5 of the radius more).
+        let slack = 3.0 * e_light + gamma(16) * reach + gamma(32) * magnitude + radius * (1.0 + 1e-5);
+        let mut faces = side_faces(&hull, slack)?;
+        let n_light = Vec3A::from(light.normal);
+        faces[4] = Face { normal: -n_light, anchor: light.center.into(), offset: -in_front, slack: 0.0 };
         Some(Shaft { faces, vertices: hull, slack })
     }
 
@@ -307,6 +310,43 @@ impl Shaft {
         }
         lo > tri_hi + margin || hi < tri_lo - margin
     }
+}
+
+/// The four side faces of the hull of `hull[0]` (the apex) and the light's corners
+/// `hull[1..]` (unused faces after them: never outside). `None` if a side is degenerate.
+fn side_faces(hull: &[Vec3A; 5], slack: f32) -> Option<[Face; 8]> {
+    let apex = hull[0];
+    let corners = &hull[1..];
+    // Unused faces (the depth clips until set) have a zero normal and an infinite offset:
+    // nothing is outside them.
+    let mut faces = [Face { normal: Vec3A::ZERO, anchor: Vec3A::ZERO, offset: f32::INFINITY, slack: 0.0 }; 8];
+    // Orientation: the centre of the hull is inside every side face.
+    let centre = 0.25 * (corners[0] + corners[1] + corners[2] + corners[3]);
+    let inner = 0.2 * apex + 0.8 * centre;
+    for i in 0..4 {
+        let (a, b) = (corners[i], corners[(i + 1) % 4]);
+        // The light edge crossed with the long edge to the apex: two well-separated
+        // directions. Any direction is a valid axis: the offset below is the hull's own
+        // largest projection on it, so the normal's rounding costs nothing.
+        let mut n = (b - a).cross(apex - a);
+        let len = n.length();
+        if !is_positive(len) || !len.is_finite() {
+            return None;
+        }
+        n /= len;
+        if n.dot(inner - a) > 0.0 {
+            n = -n;
+        }
+        let offset = hull
+            .iter()
+            .map(|&v| {
+                let w = v - apex;
+                n.dot(w) + gamma(5) * n.abs().dot(w.abs())
+            })
+            .fold(f32::NEG_INFINITY, f32::max);
+        faces[i] = Face { normal: n, anchor: apex, offset, slack };
+    }
+    Some(faces)
 }
 
 impl Scene {

@@ -293,3 +293,57 @@ fn occluded_except_passes_only_the_skipped_triangles() {
     assert!(blocked(&|slot| slot >= 2), "the lower plate still blocks");
     assert!(!blocked(&|_| true), "nothing left to block");
 }
+
+/// A ball's shaft holds every shaft of an apex inside the ball: random balls under a light,
+/// random apexes in them, random segments and small triangles; whatever an apex's own hull
+/// cannot separate, the ball's cannot either, and segments along a ray from the apex to the
+/// light are never separated. Far segments are (the test can fail).
+#[test]
+fn a_ball_shaft_holds_the_shaft_of_every_apex_inside_it() {
+    let mut rng = Rng::new(0x5eed_ba11);
+    let mut next = move || rng.next_f32();
+    let l = light();
+    let (mut kept, mut separated_far) = (0u32, 0u32);
+    for _ in 0..200 {
+        let centre = Vec3::new(4.0 * next() - 2.0, 1.5 * next() - 0.5, 4.0 * next() - 2.0);
+        let radius = 0.2 * next() * next();
+        let Some(ball) = Shaft::around_ball(&l, centre, radius) else { continue };
+        for _ in 0..20 {
+            let dir = Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5).normalize_or_zero();
+            let apex = centre + 0.999 * radius * next() * dir;
+            let n = Vec3::Y;
+            let point =
+                ShadingPoint { p: apex - 1e-3 * n, p_error: point_error(apex), n_geom: n, n_shading: n };
+            let Some(own) =
+                Shaft::with_apex(&l, [0.0, 1.0], [0.0, 1.0], &point, apex).map(Shaft::without_cut)
+            else {
+                continue;
+            };
+            for _ in 0..20 {
+                let target = l.point(next(), next());
+                let (t0, t1) = (0.05 + 0.9 * next(), 0.05 + 0.9 * next());
+                let (a, b) = (apex.lerp(target, t0), apex.lerp(target, t1));
+                assert!(!ball.segment_outside(a.into(), b.into()), "a ray's piece separated");
+                let s = 1e-3 * Vec3::new(next(), next(), next());
+                assert!(!ball.triangle_outside(
+                    a.into(),
+                    (a + s).into(),
+                    (a - Vec3::new(s.y, s.z, s.x)).into()
+                ));
+                // Any segment: kept by the apex's own shaft, kept by the ball's.
+                let (x, y) = (
+                    Vec3::new(6.0 * next() - 3.0, 2.5 * next() - 0.5, 6.0 * next() - 3.0),
+                    Vec3::new(6.0 * next() - 3.0, 2.5 * next() - 0.5, 6.0 * next() - 3.0),
+                );
+                if !own.segment_outside(x.into(), x.lerp(y, 0.05).into()) {
+                    kept += 1;
+                    assert!(!ball.segment_outside(x.into(), x.lerp(y, 0.05).into()));
+                }
+            }
+            let far = centre + Vec3::new(0.0, -3.0 - radius, 0.0);
+            separated_far += ball.segment_outside(far.into(), (far + Vec3::X * 0.1).into()) as u32;
+        }
+    }
+    assert!(kept > 500, "only {kept} segments kept by the apexes' shafts");
+    assert!(separated_far > 3000, "far segments separated only {separated_far} times");
+}

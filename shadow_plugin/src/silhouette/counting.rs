@@ -65,7 +65,8 @@ fn strip(j: usize, ny: usize) -> (f64, f64) {
 
 /// The rows whose strips meet [lo, hi].
 fn rows_meeting(lo: f64, hi: f64, ny: usize) -> Range<usize> {
-    let row = |y: f64| ((y * ny as f64).floor()).clamp(0.0, ny as f64 - 1.0) as usize;
+    // Clamped, then truncated: floor for the values kept (no libm call without SSE4.1).
+    let row = |y: f64| (y * ny as f64).clamp(0.0, ny as f64 - 1.0) as usize;
     if lo.is_nan() || hi.is_nan() || lo > hi {
         return 0..0;
     }
@@ -104,7 +105,7 @@ impl EdgeRows {
         let (ra, rb) = (r.x as f32, r.y as f32);
         let r_pos = e.side_at(ra, rb) > 0.0;
         let [s0, sa, sb] = e.side;
-        let grad = (sa as f64).hypot(sb as f64);
+        let grad = (sa as f64 * sa as f64 + sb as f64 * sb as f64).sqrt();
         // A sample within the band of the line is at most this far from it.
         let reach = if grad > 0.0 { e.band as f64 / grad } else { f64::INFINITY } + END_GAP as f64;
         let (lo, hi) = (e.p0.min(e.p1), e.p0.max(e.p1));
@@ -240,7 +241,7 @@ fn row_work(p: &EdgeRows, j: usize, (nx, ny): (usize, usize)) -> Option<RowWork>
     // The line's a at the strip's two edges, and the cells it may pass within the band of.
     let (xa, xb) = (-(s0 + sb * y0) / sa, -(s0 + sb * y1) / sa);
     let g = band / sa.abs() + 2.0 * CELL_MARGIN;
-    let cell = |x: f64| (x * nx as f64).floor().clamp(0.0, nx as f64 - 1.0) as usize;
+    let cell = |x: f64| (x * nx as f64).clamp(0.0, nx as f64 - 1.0) as usize;
     let (i0, i1) = (cell(xa.min(xb) - g), cell(xa.max(xb) + g));
     // The side grows with a where sa > 0: the cells right of the line are on the + side.
     let right_pos = sa > 0.0;

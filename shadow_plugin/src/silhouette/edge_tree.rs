@@ -52,16 +52,18 @@ impl Cone {
     const NONE: Cone =
         Cone { axis: DVec3::Z, centre: DVec3::ZERO, spread: f64::INFINITY, reach: 0.0, depth: 0.0 };
 
-    /// Whether `o` is strictly on one side of every plane the cone bounds, with a margin for
-    /// the f64 evaluation (relative 1e-9 of the magnitudes involved: far above its rounding).
-    fn one_side(&self, o: DVec3) -> bool {
+    /// Whether every origin within `radius` of `o` is strictly on one and the same side of
+    /// every plane the cone bounds, with a margin for the f64 evaluation (relative 1e-9 of
+    /// the magnitudes involved: far above its rounding). Over the ball `axis . (o - centre)`
+    /// moves by at most the radius, and the distance from the centre grows by at most it.
+    fn one_side(&self, o: DVec3, radius: f64) -> bool {
         if !self.spread.is_finite() {
             return false;
         }
         let d = o - self.centre;
-        let dist = d.length();
+        let dist = d.length() + radius;
         let margin = 1e-9 * (o.abs().max_element() + self.centre.abs().max_element() + dist + self.reach);
-        self.axis.dot(d).abs() > self.depth + self.spread * (dist + self.reach) + margin
+        self.axis.dot(d).abs() - radius > self.depth + self.spread * (dist + self.reach) + margin
     }
 
     /// The cone of planes `(g, x)`.
@@ -141,19 +143,20 @@ impl EdgeTree {
 
     /// The edges and flagged triangles the shaft test cannot separate from `shaft`, into
     /// `edges` and `triangles`; `false` where the tree is too deep for the traversal's stack
-    /// (then the lists are incomplete). Nodes whose every edge weighs 0 from `origin` (the
-    /// rays' origin) are skipped.
+    /// (then the lists are incomplete). Nodes whose every edge weighs 0 from every origin
+    /// within `radius` of `origin` (the rays' origins: one point's, or a block's around its
+    /// centre with `shaft` from [`Shaft::around_ball`]) are skipped.
     pub fn gather(
         &self,
         set: &EdgeSet,
         shaft: &Shaft,
-        origin: DVec3,
+        (origin, radius): (DVec3, f64),
         edges: &mut Vec<u32>,
         triangles: &mut Vec<u32>,
     ) -> bool {
         let Some(bvh) = &self.bvh else { return true };
         let vertex = |i: u32| Vec3A::from(set.vertices[i as usize]);
-        let smooth = |node: usize| self.cones[node].one_side(origin);
+        let smooth = |node: usize| self.cones[node].one_side(origin, radius);
         shaft::shaft_leaves(bvh, shaft, smooth, |first, count| {
             for &item in &self.items[first..first + count] {
                 if item & TRIANGLE == 0 {
@@ -243,7 +246,7 @@ mod tests {
     fn a_cone_prunes_only_where_every_plane_agrees() {
         let mut uniform = crate::silhouette::uniform(0x2545_f491_4f6c_dd1d);
         let mut next = || uniform() * 2.0 - 1.0;
-        let (mut claimed, mut far_claimed) = (0, 0);
+        let (mut claimed, mut far_claimed, mut ball_claimed) = (0, 0, 0);
         for _ in 0..300 {
             // Two clusters of planes: normals near one direction, points in a small patch.
             let cluster = |next: &mut dyn FnMut() -> f64, normal: DVec3| -> Vec<(DVec3, DVec3)> {
@@ -262,16 +265,30 @@ mod tests {
             let planes: Vec<_> = a.iter().chain(&b).copied().collect();
             for _ in 0..50 {
                 let o = 4.0 * DVec3::new(next(), next(), next());
-                if merged.one_side(o) {
+                if merged.one_side(o, 0.0) {
                     claimed += 1;
                     let sides: Vec<bool> = planes.iter().map(|(g, x)| g.dot(o - *x) > 0.0).collect();
                     assert!(sides.iter().all(|&s| s == sides[0]), "a plane on the other side at {o}");
                     assert!(planes.iter().all(|(g, x)| g.dot(o - *x) != 0.0));
                 }
             }
-            far_claimed += merged.one_side(merged.centre + 100.0 * merged.axis) as u32;
+            far_claimed += merged.one_side(merged.centre + 100.0 * merged.axis, 0.0) as u32;
+            // Over a ball: every origin in it on one and the same side of every plane.
+            for _ in 0..20 {
+                let (o, radius) = (4.0 * DVec3::new(next(), next(), next()), next().abs());
+                if merged.one_side(o, radius) {
+                    ball_claimed += 1;
+                    let side = planes[0].0.dot(o - planes[0].1) > 0.0;
+                    for _ in 0..20 {
+                        let d = DVec3::new(next(), next(), next());
+                        let x = o + radius * d / d.length().max(1.0);
+                        assert!(planes.iter().all(|(g, p)| (g.dot(x - *p) > 0.0) == side), "{x} in ball {o}");
+                    }
+                }
+            }
         }
         assert!(claimed > 1000, "only {claimed} origins pruned");
         assert_eq!(far_claimed, 300);
+        assert!(ball_claimed > 300, "only {ball_claimed} balls pruned");
     }
 }

@@ -31,6 +31,7 @@
 //! count is `[shadows].samples`, as for `traced`).
 
 mod alpha;
+mod blocks;
 
 /// A uniform [0, 1) stream (xorshift64, 53 bits) for the folder's randomised unit tests.
 #[cfg(test)]
@@ -126,6 +127,8 @@ enum Fallback {
 #[derive(Debug)]
 pub struct Silhouette {
     traced: Traced,
+    /// This preparation's identity: the per-thread block caches' entries carry it.
+    id: u64,
     edges: EdgeSet,
     tree: EdgeTree,
     counters: Counters,
@@ -140,6 +143,10 @@ struct Counters {
     edges_active: AtomicU64,
     points_umbra: AtomicU64,
     points_below: AtomicU64,
+    /// Points counted cell by cell (plain strata grid, every sample above the horizon).
+    points_by_cell: AtomicU64,
+    /// Points counted sample by sample (the general path).
+    points_by_sample: AtomicU64,
     fallback_no_reference: AtomicU64,
     fallback_no_shaft: AtomicU64,
     fallback_inconsistent: AtomicU64,
@@ -150,6 +157,7 @@ impl Silhouette {
     pub fn new(params: SilhouetteParams) -> Self {
         Self {
             traced: Traced::new(TracedParams::new(params.samples)),
+            id: 0,
             edges: EdgeSet::default(),
             tree: EdgeTree::default(),
             counters: Counters::default(),
@@ -209,6 +217,9 @@ impl LightShadowing for Silhouette {
         self.traced.prepare(ctx).map_err(|e| ShadowError { method: SilhouetteParams::NAME, ..e })?;
         self.edges = EdgeSet::build(ctx.scene, ctx.light);
         self.tree = EdgeTree::build(&self.edges);
+        // Never 0 (an unprepared plugin's), never reused in this process.
+        static NEXT_ID: AtomicU64 = AtomicU64::new(1);
+        self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
         Ok(())
     }
 
@@ -241,6 +252,8 @@ impl LightShadowing for Silhouette {
             ("edges_active", load(&c.edges_active)),
             ("points_umbra", load(&c.points_umbra)),
             ("points_counted_below", load(&c.points_below)),
+            ("points_counted_by_cell", load(&c.points_by_cell)),
+            ("points_counted_by_sample", load(&c.points_by_sample)),
             ("points_fallback_no_reference", load(&c.fallback_no_reference)),
             ("points_fallback_no_shaft", load(&c.fallback_no_shaft)),
             ("points_fallback_inconsistent", load(&c.fallback_inconsistent)),

@@ -449,8 +449,10 @@ pub(super) fn count(
             && s.regions.is_empty()
             && let Some(v) = count_cells(plugin, scene, samples, s)?
         {
+            plugin.counters.points_by_cell.fetch_add(1, Ordering::Relaxed);
             return Ok(v);
         }
+        plugin.counters.points_by_sample.fetch_add(1, Ordering::Relaxed);
         let mut rays = 0u64;
         let lit = relative_counts(plugin, scene, q, samples, s, &mut rays, gathered)?;
         if s.samples.is_empty() {

@@ -2,6 +2,7 @@
 //! shaft's candidates, the active edges and flagged triangles' regions, the samples with
 //! their counts and marks, and the strata grid's bins; with the passes that fill them.
 
+use super::blocks::{Blocks, Candidate, VARIES, vertex_a};
 use super::counting::{ActiveEdge, EdgeRows};
 use super::edges::ALPHA;
 use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
@@ -13,7 +14,11 @@ use std::cell::RefCell;
 
 #[derive(Default)]
 pub(super) struct Scratch {
-    pub(super) candidates: Vec<u32>,
+    /// The blocks' candidate lists (shared by neighbouring points).
+    pub(super) blocks: Blocks,
+    pub(super) candidates: Vec<Candidate>,
+    /// Edge ids of a walk for one point alone.
+    pub(super) walked: Vec<u32>,
     /// Flagged triangles in the shaft (left out of the counting).
     pub(super) excluded: Vec<u32>,
     pub(super) active: Vec<ActiveEdge>,
@@ -54,7 +59,9 @@ thread_local! {
 }
 
 impl Scratch {
-    /// The shaft's candidates: potential silhouette edges, and flagged triangles.
+    /// The shaft's candidates: potential silhouette edges, and flagged triangles. Read from
+    /// the block of `origin` ([`Blocks`]), filtered by the point's own shaft; walked for the
+    /// point alone where no block applies.
     pub(super) fn gather(
         &mut self,
         plugin: &Silhouette,
@@ -64,9 +71,27 @@ impl Scratch {
         self.candidates.clear();
         self.excluded.clear();
         let (set, tree) = (&plugin.edges, &plugin.tree);
-        let complete = tree.gather(set, shaft, origin, &mut self.candidates, &mut self.excluded);
-        // A tree too deep for the traversal's stack: not every edge was seen.
-        if complete { Ok(()) } else { Err(Fallback::NoShaft) }
+        let light = plugin.light();
+        match self.blocks.list(plugin.id, light, set, tree, origin.as_vec3()) {
+            Some(Ok(list)) => {
+                self.candidates.extend(list.candidates.iter().filter(|c| !shaft.segment_outside(c.a, c.b)));
+                for &slot in list.triangles {
+                    let [a, b, c] = set.corners[slot as usize].map(|i| vertex_a(set, i));
+                    if !shaft.triangle_outside(a, b, c) {
+                        self.excluded.push(slot);
+                    }
+                }
+                Ok(())
+            }
+            // A tree too deep for the traversal's stack: not every edge was seen.
+            Some(Err(())) => Err(Fallback::NoShaft),
+            None => {
+                self.walked.clear();
+                let complete = tree.gather(set, shaft, (origin, 0.0), &mut self.walked, &mut self.excluded);
+                self.candidates.extend(self.walked.iter().map(|&e| Candidate::new(set, e, VARIES)));
+                if complete { Ok(()) } else { Err(Fallback::NoShaft) }
+            }
+        }
     }
 
     /// Bins this side's counted samples by cell of the strata grid (a counting sort, so that
@@ -177,21 +202,24 @@ impl Scratch {
         self.active.clear();
         let set = &plugin.edges;
         let vertex = |i: u32| set.vertices[i as usize].as_dvec3();
-        for &e in &self.candidates {
-            let edge = set.edges[e as usize];
-            let (e0, e1) = (vertex(edge.a), vertex(edge.b));
+        for c in &self.candidates {
+            let (e0, e1) = (c.a.as_dvec3(), c.b.as_dvec3());
             let (d0, d1) = (e0 - frame.o, e1 - frame.o);
             let n = d0.cross(d1);
-            let n_abs = DVec3::new(
-                (d0.y * d1.z).abs() + (d0.z * d1.y).abs(),
-                (d0.z * d1.x).abs() + (d0.x * d1.z).abs(),
-                (d0.x * d1.y).abs() + (d0.y * d1.x).abs(),
-            );
-            let mut weight = 0;
-            for &c in &set.thirds[edge.first as usize..(edge.first + edge.count) as usize] {
-                let c = vertex(c);
-                weight += orient_sign(n, n_abs, c, frame.o)
-                    .unwrap_or_else(|| exact_orient_sign(frame.o, e0, e1, c));
+            let mut weight = c.weight as i32;
+            if c.weight == VARIES {
+                let edge = set.edges[c.edge as usize];
+                let n_abs = DVec3::new(
+                    (d0.y * d1.z).abs() + (d0.z * d1.y).abs(),
+                    (d0.z * d1.x).abs() + (d0.x * d1.z).abs(),
+                    (d0.x * d1.y).abs() + (d0.y * d1.x).abs(),
+                );
+                weight = 0;
+                for &c in &set.thirds[edge.first as usize..(edge.first + edge.count) as usize] {
+                    let c = vertex(c);
+                    weight += orient_sign(n, n_abs, c, frame.o)
+                        .unwrap_or_else(|| exact_orient_sign(frame.o, e0, e1, c));
+                }
             }
             if weight != 0 {
                 push(&mut self.active, frame, e0, e1, n, weight);
