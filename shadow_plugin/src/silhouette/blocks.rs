@@ -15,7 +15,7 @@
 //! The cache is per thread and direct-mapped; which points walk depends on the order
 //! queries arrive in, the answers do not.
 
-use super::edge_tree::EdgeTree;
+use super::edge_tree::{EdgeRecord, EdgeTree};
 use super::edges::EdgeSet;
 use glam::{DVec3, Vec3, Vec3A};
 use renderer::RectLight;
@@ -23,10 +23,11 @@ use renderer::geometry::shaft::Shaft;
 use renderer::util::sampling::mix64;
 
 /// A cube's side is about the origin's distance to the light's centre over this. Measured
-/// (silhouette's shadow seconds at 320x240, N = 1024; flight-helmet, metal-rough-spheres):
-/// 16: 1.46, 1.15; 64: 1.55, 0.96; 256: 2.03, 1.12 (per point, before: 1.78, 1.04). Larger
+/// (silhouette's shadow seconds at 320x240, N = 1024, medians of 3 side by side;
+/// flight-helmet, metal-rough-spheres, glass-vase-flowers): 16: 1.49, 1.18, 1.28; 32: 1.47,
+/// 1.06, 1.27; 64: 1.57, 1.06, 1.28 (one walk per point before: 1.78, 1.04, 1.30). Larger
 /// cubes walk less but hand each point more candidates to filter.
-const BLOCK_DIVISOR: f64 = 64.0;
+const BLOCK_DIVISOR: f64 = 32.0;
 
 /// Cache entries per thread (direct-mapped): at 320 pixels a row, a cube of a few pixels and
 /// a few rows per cube, a band's cubes fit.
@@ -65,9 +66,8 @@ pub(super) struct Candidate {
 }
 
 impl Candidate {
-    pub(super) fn new(set: &EdgeSet, edge: u32, weight: i8) -> Candidate {
-        let e = set.edges[edge as usize];
-        Candidate { a: vertex_a(set, e.a), b: vertex_a(set, e.b), edge, weight }
+    pub(super) fn new(r: &EdgeRecord, weight: i8) -> Candidate {
+        Candidate { a: r.a, b: r.b, edge: r.edge, weight }
     }
 }
 
@@ -123,10 +123,11 @@ impl Blocks {
             entry.complete =
                 tree.gather(set, &shaft, (centre, radius), &mut entry.edges, &mut entry.triangles);
             // The weights over the block; edges that weigh 0 for every point are dropped.
-            for &e in &entry.edges {
-                let w = block_weight(set, e, centre, radius);
+            for &pos in &entry.edges {
+                let r = &tree.records[pos as usize];
+                let w = block_weight(r, centre, radius);
                 if w != 0 {
-                    entry.candidates.push(Candidate::new(set, e, w));
+                    entry.candidates.push(Candidate::new(r, w));
                 }
             }
             entry.key = Some(key);
@@ -169,29 +170,22 @@ fn block_of(plugin: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVec3,
     Some((Key { plugin, level, cube }, centre, radius))
 }
 
-/// Edge `e`'s weight for every origin within `radius` of `centre`, or [`VARIES`]: each
-/// face's orientation orient3d(o, e0, e1, c) = N . (e0 - o), N = (e1 - e0) x (c - e0), is
-/// affine in o and moves by at most |N| radius over the ball; a face is counted only where
-/// its sign holds over the whole ball by more than the f64 rounding (then each point's own
-/// exact predicate gives the same sign). Boundary and non-manifold edges alike.
-fn block_weight(set: &EdgeSet, e: u32, centre: DVec3, radius: f64) -> i8 {
-    let edge = set.edges[e as usize];
-    let v = |i: u32| set.vertices[i as usize].as_dvec3();
-    let (e0, e1) = (v(edge.a), v(edge.b));
-    let mut weight = 0i32;
-    for &c in &set.thirds[edge.first as usize..(edge.first + edge.count) as usize] {
-        let (p, q) = (e1 - e0, v(c) - e0);
-        let n = p.cross(q);
-        // N's rounding is under 2^-52 of the permanent (the products' magnitudes).
-        let perm = DVec3::new(
-            (p.y * q.z).abs() + (p.z * q.y).abs(),
-            (p.z * q.x).abs() + (p.x * q.z).abs(),
-            (p.x * q.y).abs() + (p.y * q.x).abs(),
-        );
-        let d = e0 - centre;
+/// An edge's weight for every origin within `radius` of `centre`, or [`VARIES`]: each face's
+/// orientation orient3d(o, e0, e1, c) = N . (e0 - o) is affine in o and moves by at most
+/// |N| radius over the ball; a face is counted only where its sign holds over the whole ball
+/// by more than the f64 rounding (then each point's own exact predicate gives the same sign).
+/// N's components are rounded by under 2^-52 of `scale` each: 1e-12 of it is far over.
+fn block_weight(r: &EdgeRecord, centre: DVec3, radius: f64) -> i8 {
+    if r.faces == 0 {
+        return VARIES;
+    }
+    let d = r.a.as_dvec3() - centre;
+    let spread = d.abs().element_sum() + 3.0 * radius;
+    let mut weight = 0i8;
+    for k in 0..r.faces as usize {
+        let n = r.planes[k];
         let det = n.dot(d);
-        // N's and the dot product's rounding, with a wide margin, over the whole ball.
-        let bound = n.length() * radius * (1.0 + 1e-9) + 1e-12 * perm.dot(d.abs() + DVec3::splat(radius));
+        let bound = n.length() * radius * (1.0 + 1e-9) + 1e-12 * r.scale[k] * spread;
         if det > bound {
             weight += 1;
         } else if det < -bound {
@@ -200,7 +194,7 @@ fn block_weight(set: &EdgeSet, e: u32, centre: DVec3, radius: f64) -> i8 {
             return VARIES;
         }
     }
-    i8::try_from(weight).unwrap_or(VARIES)
+    weight
 }
 
 /// Vertex `i` of `set` as the shaft tests read it.
@@ -231,7 +225,7 @@ mod tests {
                 ..EdgeSet::default()
             };
             let (centre, radius) = (point(2.0), 0.5 * point(1.0).x.abs());
-            let w = block_weight(&set, 0, centre, radius);
+            let w = block_weight(&EdgeRecord::new(&set, 0), centre, radius);
             if w == VARIES {
                 varies += 1;
                 continue;

@@ -30,6 +30,9 @@ const TRIANGLE: u32 = 1 << 31;
 pub struct EdgeTree {
     bvh: Option<Bvh2>,
     items: Vec<u32>,
+    /// Per item (leaf order): an edge's record (a flagged triangle's slot holds a blank one),
+    /// so that a walk reads its leaves' edges from one run of memory.
+    pub records: Vec<EdgeRecord>,
     /// Per node: the bound of its items' face planes.
     cones: Vec<Cone>,
 }
@@ -101,6 +104,50 @@ impl Cone {
     }
 }
 
+/// An edge as the queries read it: its ends, and its faces' planes for weights over a block.
+#[derive(Debug, Clone, Copy)]
+pub struct EdgeRecord {
+    pub a: Vec3A,
+    pub b: Vec3A,
+    /// N_k = (b - a) x (c_k - a) for its faces (f64, from the f32 vertices): orient3d(o, a,
+    /// b, c_k) = N_k . (a - o).
+    pub planes: [DVec3; 2],
+    /// |b - a| |c_k - a|: a bound on each component of N_k's products (its rounding).
+    pub scale: [f64; 2],
+    /// The edge's id in the set (its faces' third vertices).
+    pub edge: u32,
+    /// How many faces `planes` holds: 1 or 2, or 0 where the edge has more (never known
+    /// over a block).
+    pub faces: u8,
+}
+
+impl EdgeRecord {
+    const BLANK: EdgeRecord = EdgeRecord {
+        a: Vec3A::ZERO,
+        b: Vec3A::ZERO,
+        planes: [DVec3::ZERO; 2],
+        scale: [0.0; 2],
+        edge: u32::MAX,
+        faces: 0,
+    };
+
+    pub(super) fn new(set: &EdgeSet, id: u32) -> EdgeRecord {
+        let e = set.edges[id as usize];
+        let v = |i: u32| set.vertices[i as usize];
+        let (a, b) = (v(e.a).as_dvec3(), v(e.b).as_dvec3());
+        let mut record = EdgeRecord { a: v(e.a).into(), b: v(e.b).into(), edge: id, ..EdgeRecord::BLANK };
+        if e.count <= 2 {
+            record.faces = e.count as u8;
+            for (k, &c) in set.thirds[e.first as usize..(e.first + e.count) as usize].iter().enumerate() {
+                let (p, q) = (b - a, v(c).as_dvec3() - a);
+                record.planes[k] = p.cross(q);
+                record.scale[k] = p.length() * q.length();
+            }
+        }
+        record
+    }
+}
+
 impl std::fmt::Debug for EdgeTree {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("EdgeTree").field("items", &self.items.len()).finish()
@@ -132,17 +179,21 @@ impl EdgeTree {
         let bvh = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
         let items: Vec<u32> = bvh.primitive_indices.iter().map(|&i| items[i as usize]).collect();
         let cones = cones(&bvh, &items, set);
-        EdgeTree { bvh: Some(bvh), items, cones }
+        let records = items
+            .iter()
+            .map(|&item| if item & TRIANGLE == 0 { EdgeRecord::new(set, item) } else { EdgeRecord::BLANK })
+            .collect();
+        EdgeTree { bvh: Some(bvh), items, records, cones }
     }
 
     /// Bytes held.
     pub fn bytes(&self) -> u64 {
         let nodes = self.bvh.as_ref().map_or(0, |b| b.nodes.len() * std::mem::size_of_val(&b.nodes[0]));
-        (nodes + self.items.len() * 8) as u64
+        (nodes + self.items.len() * 8 + self.records.len() * std::mem::size_of::<EdgeRecord>()) as u64
     }
 
-    /// The edges and flagged triangles the shaft test cannot separate from `shaft`, into
-    /// `edges` and `triangles`; `false` where the tree is too deep for the traversal's stack
+    /// The edges (their positions in [`EdgeTree::records`]) and flagged triangles (slots)
+    /// the shaft test cannot separate from `shaft`, into `edges` and `triangles`; `false` where the tree is too deep for the traversal's stack
     /// (then the lists are incomplete). Nodes whose every edge weighs 0 from every origin
     /// within `radius` of `origin` (the rays' origins: one point's, or a block's around its
     /// centre with `shaft` from [`Shaft::around_ball`]) are skipped.
@@ -158,11 +209,11 @@ impl EdgeTree {
         let vertex = |i: u32| Vec3A::from(set.vertices[i as usize]);
         let smooth = |node: usize| self.cones[node].one_side(origin, radius);
         shaft::shaft_leaves(bvh, shaft, smooth, |first, count| {
-            for &item in &self.items[first..first + count] {
+            for (pos, &item) in (first..).zip(&self.items[first..first + count]) {
                 if item & TRIANGLE == 0 {
-                    let e = set.edges[item as usize];
-                    if !shaft.segment_outside(vertex(e.a), vertex(e.b)) {
-                        edges.push(item);
+                    let r = &self.records[pos];
+                    if !shaft.segment_outside(r.a, r.b) {
+                        edges.push(pos as u32);
                     }
                 } else {
                     let slot = item & !TRIANGLE;

@@ -88,7 +88,8 @@ impl Scratch {
             None => {
                 self.walked.clear();
                 let complete = tree.gather(set, shaft, (origin, 0.0), &mut self.walked, &mut self.excluded);
-                self.candidates.extend(self.walked.iter().map(|&e| Candidate::new(set, e, VARIES)));
+                self.candidates
+                    .extend(self.walked.iter().map(|&p| Candidate::new(&tree.records[p as usize], VARIES)));
                 if complete { Ok(()) } else { Err(Fallback::NoShaft) }
             }
         }
