@@ -58,6 +58,12 @@ impl Region {
         }
         let h = frame.height;
         let tiny = 1e-9 * h;
+        // Wholly between o's plane and the light's, not near o's (leaves between a point and
+        // its light): the triangle itself, unclipped. The light's rectangle only trims what
+        // no sample reaches; `lambda_min` over the whole triangle is at most the trimmed
+        // one's; and the projection stays within 100 light sizes, so the lines' constants
+        // keep their precision (far under the margin).
+        let inside_slab = poly[..3].iter().all(|p| p[2] >= 1e-2 * h && h - p[2] >= 0.0);
         let constraints: [Constraint; 6] = [
             |p, _, tiny| p[2] - tiny,
             |p, h, _| h - p[2],
@@ -66,7 +72,7 @@ impl Region {
             |p, _, _| p[1] + MARGIN * p[2],
             |p, _, _| (1.0 + MARGIN) * p[2] - p[1],
         ];
-        for g in constraints {
+        for g in constraints.into_iter().filter(|_| !inside_slab) {
             let mut out = [[0.0f64; 3]; MAX_POLYGON];
             let mut m = 0;
             for k in 0..n {
