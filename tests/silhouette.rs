@@ -164,6 +164,21 @@ fn shared_scenes_agree_with_the_bvh() {
     assert!(settled > 1_000_000, "only {settled} settled samples checked");
 }
 
+/// The safety net: at N = 4 a point of metal-rough-spheres' spheres has more active edges
+/// than 3 per sample, and is traced whole; the answers still equal tracing every sample.
+#[test]
+fn points_with_more_edges_than_the_counting_pays_for_are_traced_whole() {
+    if !common::shared::scenes_present("silhouette::points_with_more_edges_than_the_counting_pays_for") {
+        return;
+    }
+    let scene = root().join("scenes/gltf/metal-rough-spheres.toml");
+    let keys = ["answers_differ", "points_fallback_costly", "silhouette_points"];
+    let [differ, costly, points] =
+        checked::counters(&scene, (48, 36, 4), Arc::new(CheckedMethod), "costly", keys);
+    assert_eq!(differ, 0, "answers differing from tracing the same samples");
+    assert!(costly > 20 && costly < points, "{costly} of {points} points traced whole");
+}
+
 /// Random soups with shared edges, terraced heightfields (closed boxes), duplicated and
 /// reversed triangles, non-manifold fans, T-junctions, crossing closed boxes and meshes with
 /// smoothed normals (samples under the geometric tangent plane, counted from the origin

@@ -14,6 +14,7 @@ pub const READERS: &[&str] = &[
     "shared_scenes (all 12)",
     "exact_edge_table::shared_and_bench_scenes_agree_with_the_bvh",
     "silhouette::shared_scenes_agree_with_the_bvh",
+    "silhouette::points_with_more_edges_than_the_counting_pays_for",
     "bench::a_changed_model_buffer_renders_the_truth_anew",
 ];
 

@@ -119,6 +119,8 @@ const CULLING: Culling = Culling::WholeLight;
 enum Fallback {
     /// No reference point clear of every active edge's band.
     NoReference,
+    /// More active edges than the counting pays for against tracing.
+    Costly,
     NoShaft,
     Inconsistent,
 }
@@ -148,6 +150,7 @@ struct Counters {
     /// Points counted sample by sample (the general path).
     points_by_sample: AtomicU64,
     fallback_no_reference: AtomicU64,
+    fallback_costly: AtomicU64,
     fallback_no_shaft: AtomicU64,
     fallback_inconsistent: AtomicU64,
     alpha_tests: AtomicU64,
@@ -173,6 +176,7 @@ impl Silhouette {
         let c = &self.counters;
         match why {
             Fallback::NoReference => &c.fallback_no_reference,
+            Fallback::Costly => &c.fallback_costly,
             Fallback::NoShaft => &c.fallback_no_shaft,
             Fallback::Inconsistent => &c.fallback_inconsistent,
         }
@@ -255,6 +259,7 @@ impl LightShadowing for Silhouette {
             ("points_counted_by_cell", load(&c.points_by_cell)),
             ("points_counted_by_sample", load(&c.points_by_sample)),
             ("points_fallback_no_reference", load(&c.fallback_no_reference)),
+            ("points_fallback_costly", load(&c.fallback_costly)),
             ("points_fallback_no_shaft", load(&c.fallback_no_shaft)),
             ("points_fallback_inconsistent", load(&c.fallback_inconsistent)),
             ("alpha_triangle_tests", load(&c.alpha_tests)),
