@@ -277,6 +277,16 @@ impl Shaft {
         self.faces.iter().any(|f| f.outside(a) && f.outside(b))
     }
 
+    /// [`Shaft::segment_outside`] for a shaft with no cut and no depth clips
+    /// ([`Shaft::without_cut`], [`Shaft::around_ball`]): its four sides and the light's face
+    /// only (the others are never outside: skipping them saves a third of the test, which
+    /// `silhouette` runs per candidate edge and point).
+    #[inline]
+    pub fn segment_outside_hull(&self, a: Vec3A, b: Vec3A) -> bool {
+        debug_assert!(self.faces[5..].iter().all(|f| f.offset == f32::INFINITY));
+        self.faces[..5].iter().any(|f| f.outside(a) && f.outside(b))
+    }
+
     /// Whether the triangle is separated from the shaft by one of its faces or by its own
     /// plane.
     #[inline]

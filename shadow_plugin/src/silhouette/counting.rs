@@ -182,6 +182,10 @@ impl EdgeRows {
 
     /// The a-range of the edge's part with heights in [lo, hi] (None: no part there).
     fn a_range(&self, lo: f64, hi: f64) -> Option<(f64, f64)> {
+        // Wholly within the heights (a small edge in its strip): the whole edge.
+        if lo <= self.p0.y.min(self.p1.y) && self.p0.y.max(self.p1.y) <= hi {
+            return Some((self.p0.x.min(self.p1.x), self.p0.x.max(self.p1.x)));
+        }
         let d = self.p1 - self.p0;
         let (mut t0, mut t1) = (0.0f64, 1.0f64);
         if d.y != 0.0 {

@@ -193,7 +193,8 @@ impl EdgeTree {
     }
 
     /// The edges (their positions in [`EdgeTree::records`]) and flagged triangles (slots)
-    /// the shaft test cannot separate from `shaft`, into `edges` and `triangles`; `false` where the tree is too deep for the traversal's stack
+    /// the shaft test cannot separate from `shaft` (a hull: no cut, no depth clips), into
+    /// `edges` and `triangles`; `false` where the tree is too deep for the traversal's stack
     /// (then the lists are incomplete). Nodes whose every edge weighs 0 from every origin
     /// within `radius` of `origin` (the rays' origins: one point's, or a block's around its
     /// centre with `shaft` from [`Shaft::around_ball`]) are skipped.
@@ -212,7 +213,7 @@ impl EdgeTree {
             for (pos, &item) in (first..).zip(&self.items[first..first + count]) {
                 if item & TRIANGLE == 0 {
                     let r = &self.records[pos];
-                    if !shaft.segment_outside(r.a, r.b) {
+                    if !shaft.segment_outside_hull(r.a, r.b) {
                         edges.push(pos as u32);
                     }
                 } else {

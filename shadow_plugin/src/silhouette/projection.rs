@@ -309,9 +309,11 @@ pub(super) fn push(active: &mut Vec<ActiveEdge>, frame: &Frame, e0: DVec3, e1: D
         if !(scale > 0.0 && scale.is_finite()) {
             return;
         }
-        let side = [(s0 / scale) as f32, (sa / scale) as f32, (sb / scale) as f32];
+        // One division: any positive scale will do (the band is scaled alike).
+        let inv = 1.0 / scale;
+        let side = [(s0 * inv) as f32, (sa * inv) as f32, (sb * inv) as f32];
         let rounding = 8.0 * f32::EPSILON as f64 * (side[0].abs() + side[1].abs() + side[2].abs()) as f64;
-        let band = (band / scale).max(rounding) as f32 * 1.001;
+        let band = (band * inv).max(rounding) as f32 * 1.001;
         active.push(ActiveEdge { side, band, p0, p1, weight });
     }
 }

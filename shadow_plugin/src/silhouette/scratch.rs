@@ -74,7 +74,8 @@ impl Scratch {
         let light = plugin.light();
         match self.blocks.list(plugin.id, light, set, tree, origin.as_vec3()) {
             Some(Ok(list)) => {
-                self.candidates.extend(list.candidates.iter().filter(|c| !shaft.segment_outside(c.a, c.b)));
+                self.candidates
+                    .extend(list.candidates.iter().filter(|c| !shaft.segment_outside_hull(c.a, c.b)));
                 for &slot in list.triangles {
                     let [a, b, c] = set.corners[slot as usize].map(|i| vertex_a(set, i));
                     if !shaft.triangle_outside(a, b, c) {
