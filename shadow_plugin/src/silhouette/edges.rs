@@ -93,7 +93,9 @@ impl EdgeSet {
     pub fn build(scene: &Scene, light: &RectLight) -> EdgeSet {
         let n = scene.triangles.len();
         let mut set = EdgeSet { flags: vec![0; n], ..EdgeSet::default() };
-        set.weld(scene);
+        // One buffer for both sorts' keys: a fresh 50 MB vector each (metal-rough-spheres)
+        // cost its page faults twice.
+        let mut keys = set.weld(scene);
         let near = near_light_band(scene, light);
         let classes = alpha::classify(scene);
         for (slot, tri) in scene.triangles.iter().enumerate() {
@@ -124,15 +126,15 @@ impl EdgeSet {
         set.stats.alpha_triangles = set.flags.iter().filter(|&&f| f & ALPHA != 0).count() as u64;
         set.stats.near_light_triangles = set.flags.iter().filter(|&&f| f & NEAR_LIGHT != 0).count() as u64;
         set.stats.zero_area_triangles = set.flags.iter().filter(|&&f| f & ZERO_AREA != 0).count() as u64;
-        set.link_edges(light, &classes);
+        set.link_edges(light, &classes, &mut keys);
         set
     }
 
     /// Welds vertices at bit-identical positions (-0.0 and 0.0 are one): the corners sorted
     /// by position (in parallel; ties by corner, so the ids are the same on every run), one
     /// id per run of equal positions. Measured on metal-rough-spheres (3.1 M corners): a hash
-    /// map took 210 ms.
-    fn weld(&mut self, scene: &Scene) {
+    /// map took 210 ms. Returns the sorted keys' buffer (for the next sort to reuse).
+    fn weld(&mut self, scene: &Scene) -> Vec<u128> {
         // Position bits and corner index packed in one u128: one integer comparison.
         let key = |v: [f32; 3], corner: usize| {
             let v = Vec3::from(v) + Vec3::ZERO; // -0.0 + 0.0 = 0.0
@@ -148,24 +150,25 @@ impl EdgeSet {
             })
             .collect();
         keyed.par_sort_unstable();
-        let mut corners = vec![0u32; keyed.len()];
+        self.corners = vec![[0u32; 3]; scene.triangles.len()];
         for (n, &k) in keyed.iter().enumerate() {
             let position = k >> 32;
             if n == 0 || keyed[n - 1] >> 32 != position {
                 let bits = [(position >> 64) as u32, (position >> 32) as u32, position as u32];
                 self.vertices.push(Vec3::from_array(bits.map(f32::from_bits)));
             }
-            corners[k as u32 as usize] = self.vertices.len() as u32 - 1;
+            let corner = k as u32 as usize;
+            self.corners[corner / 3][corner % 3] = self.vertices.len() as u32 - 1;
         }
-        self.corners = corners.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        keyed
     }
 
     /// Every edge of the opaque (unflagged, not clear), non-degenerate triangles with its
     /// incident triangles; keeps the potential silhouette edges.
-    fn link_edges(&mut self, light: &RectLight, classes: &[AlphaClass]) {
+    fn link_edges(&mut self, light: &RectLight, classes: &[AlphaClass], packed: &mut Vec<u128>) {
         // (a, b, third, whether the triangle's winding runs a -> b) for every triangle side,
         // sorted by edge: packed in one u128 (one integer comparison) for the sort.
-        let mut packed: Vec<u128> = Vec::with_capacity(3 * self.corners.len());
+        packed.clear();
         for (slot, c) in self.corners.iter().enumerate() {
             if self.flags[slot] != 0 || classes[slot] == AlphaClass::Clear {
                 continue;
@@ -177,18 +180,21 @@ impl EdgeSet {
             }
         }
         packed.par_sort_unstable();
-        let sides: Vec<(u32, u32, u32, bool)> = packed
-            .iter()
-            .map(|&p| ((p >> 96) as u32, (p >> 64) as u32, (p >> 32) as u32, p as u32 != 0))
-            .collect();
+        let packed = &packed[..];
+        // Side k: (a, b, third, whether the triangle's winding runs a -> b), unpacked.
+        let side = |k: usize| {
+            let p = packed[k];
+            ((p >> 96) as u32, (p >> 64) as u32, (p >> 32) as u32, p as u32 != 0)
+        };
+        let edge_of = |k: usize| (packed[k] >> 64) as u64;
         let corners = light_corners_grown(light);
         // The runs of sides on one edge, then which edges to keep (in parallel: 1.5 M plane
         // tests on metal-rough-spheres), then the kept ones in order.
         let mut runs = Vec::new();
         let mut i = 0;
-        while i < sides.len() {
+        while i < packed.len() {
             let mut j = i + 1;
-            while j < sides.len() && (sides[j].0, sides[j].1) == (sides[i].0, sides[i].1) {
+            while j < packed.len() && edge_of(j) == edge_of(i) {
                 j += 1;
             }
             runs.push((i as u32, j as u32));
@@ -199,12 +205,12 @@ impl EdgeSet {
             .map(|&(i, j)| {
                 let (i, j) = (i as usize, j as usize);
                 j - i != 2
-                    || self.silhouette_somewhere(sides[i].0, sides[i].1, sides[i].2, sides[i + 1].2, &corners)
+                    || self.silhouette_somewhere(side(i).0, side(i).1, side(i).2, side(i + 1).2, &corners)
             })
             .collect();
         for (&(i, j), keep) in runs.iter().zip(keep) {
             let (i, j) = (i as usize, j as usize);
-            let (a, b) = (sides[i].0, sides[i].1);
+            let (a, b, _, forward) = side(i);
             self.stats.edges += 1;
             let count = j - i;
             match count {
@@ -214,8 +220,8 @@ impl EdgeSet {
             }
             if keep {
                 self.edges.push(Edge { a, b, first: self.thirds.len() as u32, count: count as u32 });
-                self.thirds.extend(sides[i..j].iter().map(|s| s.2));
-                self.forward.push(sides[i].3);
+                self.thirds.extend((i..j).map(|k| side(k).2));
+                self.forward.push(forward);
             }
         }
         self.stats.potential = self.edges.len() as u64;
