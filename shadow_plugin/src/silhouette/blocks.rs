@@ -15,6 +15,7 @@
 //! The cache is per thread and direct-mapped; which points walk depends on the order
 //! queries arrive in, the answers do not.
 
+use super::Fallback;
 use super::edge_tree::{EdgeRecord, EdgeTree};
 use super::edges::EdgeSet;
 use glam::{DVec3, Vec3, Vec3A};
@@ -74,8 +75,9 @@ impl Candidate {
 #[derive(Debug, Default)]
 struct Entry {
     key: Option<Key>,
-    /// The walk finished (a tree deeper than the traversal's stack did not).
-    complete: bool,
+    /// Why no point reads this block's list: a tree deeper than the traversal's stack, or
+    /// more candidates than the counting pays for (the walk stops there).
+    refused: Option<Fallback>,
     edges: Vec<u32>,
     candidates: Vec<Candidate>,
     triangles: Vec<u32>,
@@ -98,15 +100,16 @@ impl Blocks {
     /// The block holding `origin` for the plugin's preparation `plugin`, walked if the
     /// cache does not hold it; `None` where no block applies (an origin too near the light
     /// for its block's ball, or coordinates off any grid), `Some(Err)` where the walk could
-    /// not finish.
+    /// not finish or its list holds more than `max_candidates` (the same for every point of
+    /// a preparation: the sample count's).
     pub(super) fn list(
         &mut self,
         plugin: u64,
         light: &RectLight,
-        set: &EdgeSet,
-        tree: &EdgeTree,
+        (set, tree): (&EdgeSet, &EdgeTree),
         origin: Vec3,
-    ) -> Option<Result<BlockList<'_>, ()>> {
+        max_candidates: usize,
+    ) -> Option<Result<BlockList<'_>, Fallback>> {
         let (key, centre, radius) = block_of(plugin, light, origin)?;
         if self.entries.is_empty() {
             self.entries.resize_with(ENTRIES, Entry::default);
@@ -120,23 +123,35 @@ impl Blocks {
             entry.edges.clear();
             entry.candidates.clear();
             entry.triangles.clear();
-            entry.complete =
-                tree.gather(set, &shaft, (centre, radius), &mut entry.edges, &mut entry.triangles);
+            // About half the edges walked keep a weight over a block (flight-helmet: 45%):
+            // twice the candidates allowed ends a walk that cannot give a usable list.
+            let max_walked = max_candidates.saturating_mul(2);
+            let (edges, triangles) = (&mut entry.edges, &mut entry.triangles);
+            let complete = tree.gather(set, &shaft, (centre, radius), edges, triangles, max_walked);
+            entry.refused = if edges.len() > max_walked {
+                Some(Fallback::Costly)
+            } else if !complete {
+                Some(Fallback::NoShaft)
+            } else {
+                None
+            };
             // The weights over the block; edges that weigh 0 for every point are dropped.
-            for &pos in &entry.edges {
+            for &pos in entry.edges.iter().take_while(|_| entry.refused.is_none()) {
                 let r = &tree.records[pos as usize];
                 let w = block_weight(r, centre, radius);
                 if w != 0 {
                     entry.candidates.push(Candidate::new(r, w));
                 }
             }
+            if entry.refused.is_none() && entry.candidates.len() > max_candidates {
+                entry.refused = Some(Fallback::Costly);
+            }
             entry.key = Some(key);
         }
         let entry = &self.entries[key.slot()];
-        Some(if entry.complete {
-            Ok(BlockList { candidates: &entry.candidates, triangles: &entry.triangles })
-        } else {
-            Err(())
+        Some(match entry.refused {
+            None => Ok(BlockList { candidates: &entry.candidates, triangles: &entry.triangles }),
+            Some(why) => Err(why),
         })
     }
 }

@@ -197,7 +197,8 @@ impl EdgeTree {
     /// `edges` and `triangles`; `false` where the tree is too deep for the traversal's stack
     /// (then the lists are incomplete). Nodes whose every edge weighs 0 from every origin
     /// within `radius` of `origin` (the rays' origins: one point's, or a block's around its
-    /// centre with `shaft` from [`Shaft::around_ball`]) are skipped.
+    /// centre with `shaft` from [`Shaft::around_ball`]) are skipped. The walk stops (`false`)
+    /// once more than `max_edges` edges are found (the caller sees it by their count).
     pub fn gather(
         &self,
         set: &EdgeSet,
@@ -205,6 +206,7 @@ impl EdgeTree {
         (origin, radius): (DVec3, f64),
         edges: &mut Vec<u32>,
         triangles: &mut Vec<u32>,
+        max_edges: usize,
     ) -> bool {
         let Some(bvh) = &self.bvh else { return true };
         let vertex = |i: u32| Vec3A::from(set.vertices[i as usize]);
@@ -215,6 +217,9 @@ impl EdgeTree {
                     let r = &self.records[pos];
                     if !shaft.segment_outside_hull(r.a, r.b) {
                         edges.push(pos as u32);
+                        if edges.len() > max_edges {
+                            return false;
+                        }
                     }
                 } else {
                     let slot = item & !TRIANGLE;

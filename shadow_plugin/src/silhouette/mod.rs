@@ -55,7 +55,7 @@ mod scratch;
 use edge_tree::EdgeTree;
 use edges::EdgeSet;
 use renderer::interface::method::NoKeys;
-use renderer::methods::light_samples::{Culling, LightSample, PointSamples};
+use renderer::methods::light_samples::{Culling, LightSample};
 use renderer::methods::traced::trace_samples;
 use renderer::{
     KeyError, LightShadowing, MethodParams, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod,
@@ -172,8 +172,11 @@ impl Silhouette {
         self.traced.light().expect("prepare() runs before visibility()")
     }
 
-    /// Every sample traced as `traced` traces it (the whole-point fallback).
-    fn trace_all(&self, scene: &Scene, samples: &PointSamples, why: Fallback) -> f32 {
+    /// Every sample traced as `traced` traces it (the whole-point fallback), with its culling
+    /// too: parts of the light proven clear by their own shafts are not traced (the whole
+    /// light's shaft alone, which the counting needs, left flight-helmet under a softbox
+    /// 1.2x slower than `traced` on the points it traces whole).
+    fn trace_all(&self, scene: &Scene, q: &ShadowQuery, why: Fallback) -> f32 {
         let c = &self.counters;
         match why {
             Fallback::NoReference => &c.fallback_no_reference,
@@ -182,9 +185,13 @@ impl Silhouette {
             Fallback::Inconsistent => &c.fallback_inconsistent,
         }
         .fetch_add(1, Ordering::Relaxed);
-        let (tally, rays) = trace_samples(scene, samples);
+        let culled = match self.traced.point_samples_culled(scene, q, Culling::Leaves) {
+            Ok(culled) => culled,
+            Err(visibility) => return visibility,
+        };
+        let (tally, rays) = trace_samples(scene, &culled);
         c.rays.fetch_add(rays as u64, Ordering::Relaxed);
-        tally.visibility(samples.share())
+        tally.visibility(culled.share())
     }
 }
 
@@ -241,7 +248,7 @@ impl LightShadowing for Silhouette {
         };
         match query::count(self, scene, q, &samples) {
             Ok(v) => v,
-            Err(why) => self.trace_all(scene, &samples, why),
+            Err(why) => self.trace_all(scene, q, why),
         }
     }
 

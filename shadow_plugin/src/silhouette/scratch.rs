@@ -67,12 +67,15 @@ impl Scratch {
         plugin: &Silhouette,
         shaft: &Shaft,
         origin: DVec3,
+        max_candidates: usize,
     ) -> Result<(), Fallback> {
         self.candidates.clear();
         self.excluded.clear();
         let (set, tree) = (&plugin.edges, &plugin.tree);
         let light = plugin.light();
-        match self.blocks.list(plugin.id, light, set, tree, origin.as_vec3()) {
+        // A block with more candidates than the counting pays for is refused before any is
+        // filtered, its walk stopped early.
+        match self.blocks.list(plugin.id, light, (set, tree), origin.as_vec3(), max_candidates) {
             Some(Ok(list)) => {
                 self.candidates
                     .extend(list.candidates.iter().filter(|c| !shaft.segment_outside_hull(c.a, c.b)));
@@ -84,11 +87,12 @@ impl Scratch {
                 }
                 Ok(())
             }
-            // A tree too deep for the traversal's stack: not every edge was seen.
-            Some(Err(())) => Err(Fallback::NoShaft),
+            // Too many candidates, or a tree too deep for the traversal's stack.
+            Some(Err(why)) => Err(why),
             None => {
                 self.walked.clear();
-                let complete = tree.gather(set, shaft, (origin, 0.0), &mut self.walked, &mut self.excluded);
+                let (walked, excluded) = (&mut self.walked, &mut self.excluded);
+                let complete = tree.gather(set, shaft, (origin, 0.0), walked, excluded, usize::MAX);
                 self.candidates
                     .extend(self.walked.iter().map(|&p| Candidate::new(&tree.records[p as usize], VARIES)));
                 if complete { Ok(()) } else { Err(Fallback::NoShaft) }
