@@ -206,7 +206,9 @@ impl Shaft {
     /// The hull of a ball (`centre`, `radius`) and the light, without a cut: it holds the
     /// hull [`Shaft::without_cut`] of every apex inside the ball (the radius is in every
     /// separating axis's slack; the light's face is where the ball's lowest point would put
-    /// it), so what it cannot separate is a superset of what any of theirs cannot.
+    /// it): whatever meets the hull of an apex in the ball (grown by that apex's own slack)
+    /// it cannot separate. (Not a superset of what an apex's own shaft keeps: that shaft's
+    /// rounding margins may keep a little more.)
     /// For queries shared by neighbouring points. `None` where the ball is not clearly in
     /// front of the light.
     pub fn around_ball(light: &RectLight, centre: Vec3, radius: f32) -> Option<Shaft> {

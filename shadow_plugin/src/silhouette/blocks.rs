@@ -10,8 +10,11 @@
 //! origin in the ball on one side weighs the same for all of them: its weight is kept, and
 //! if it is 0 the edge is dropped for the whole block (most of a smooth mesh's candidates).
 //!
-//! Exact whatever the cache holds: a block's list is a superset of each of its points' own
-//! (the ball's hull holds each point's hull), and a kept weight is each point's own weight.
+//! Exact whatever the cache holds: a block's list holds every edge that meets the hull of
+//! any of its points (the ball's hull holds each point's, grown by its slack), which is all
+//! the counting needs, and a kept weight is each point's own weight. (A point's own walk
+//! may keep a few more edges its rounding margins cannot separate; which path a point takes
+//! depends on its origin alone, so the answers do not depend on the order or the threads.)
 //! The cache is per thread and direct-mapped; which points walk depends on the order
 //! queries arrive in, the answers do not.
 

@@ -98,6 +98,9 @@ pub(super) struct EdgeRows {
     reach: f64,
     /// The ends' a (f32, ascending): the last leg crosses only strictly between them.
     ends_a: [f32; 2],
+    /// The edge's box grown by `reach` (a0, a1, b0, b1; f32): a sample within the band and
+    /// in it is near the edge itself, where `traced`'s f32 test may go either way.
+    near_box: [f32; 4],
     /// side(R.a, y) = column + sb y (f64): C_j's side.
     column: f64,
     /// The side R is on.
@@ -127,6 +130,12 @@ impl EdgeRows {
             p1: e.p1,
             reach,
             ends_a: [lo.x as f32, hi.x as f32],
+            near_box: [
+                (lo.x - reach) as f32,
+                (hi.x + reach) as f32,
+                (lo.y - reach) as f32,
+                (hi.y + reach) as f32,
+            ],
             column: s0 as f64 + sa as f64 * r.x,
             r_pos: e.side_at(ra, rb) > 0.0,
             crosses_column: (r.x > e.p0.x) != (r.x > e.p1.x),
@@ -263,6 +272,7 @@ fn count_row(p: &EdgeRows, y: f32, leg: Option<bool>, row: Row) {
     let [s0, sa, sb] = p.side;
     let at_y = s0 + sb * y;
     let [x_lo, x_hi] = p.ends_a;
+    let [box_a0, box_a1, box_b0, box_b1] = p.near_box;
     let (w, band) = (p.weight, p.band);
     let (spans, pos_c) = (leg.is_some(), leg.unwrap_or(false));
     let n = row.rel.len().min(row.near.len()).min(row.a.len()).min(row.b.len());
@@ -278,10 +288,13 @@ fn count_row(p: &EdgeRows, y: f32, leg: Option<bool>, row: Row) {
         let step = if row_leg { if pos_m { w } else { -w } } else { 0 };
         let last_step = if last_leg { if pos_s { w } else { -w } } else { 0 };
         // Near the line where a leg reads the side: M on the row leg's crossing, M or the
-        // sample beside the edge's span of a; or a within the ends' gap of an end's a.
+        // sample beside the edge's span of a; the sample near the edge itself (its ray may
+        // meet the triangle either way in f32, whatever the path: beside a short steep
+        // edge, just past its span of a); or a within the ends' gap of an end's a.
         let wide = (x > x_lo - END_GAP) & (x < x_hi + END_GAP);
+        let in_box = (x > box_a0) & (x < box_a1) & (yb > box_b0) & (yb < box_b1);
         let near_m = (v_m.abs() < band) & (spans | wide);
-        let near_s = (v_s.abs() < band) & wide;
+        let near_s = (v_s.abs() < band) & (wide | in_box);
         let near_end = ((x - x_lo).abs() < END_GAP) | ((x - x_hi).abs() < END_GAP);
         rel[k] += step + last_step;
         near[k] |= (near_m | near_s | near_end) as u8;
@@ -391,7 +404,9 @@ const HEIGHTS: [f64; 7] = [0.5, 0.3, 0.7, 0.15, 0.85, 0.4, 0.6];
 /// Every row's own height: its strip's middle, or where that conflicts with an edge, the
 /// first of [`HEIGHTS`] that conflicts with none; rows with none are traced whole.
 struct RowHeights {
-    /// Per row (at most 256, `MAX_TRACED_SAMPLES`): a height other than the middle, or NaN.
+    /// Per row (the first 256: a square grid of `MAX_TRACED_SAMPLES` has that many; a row
+    /// past them, on an odd N's narrow grid, cannot move and is traced whole if it
+    /// conflicts): a height other than the middle, or NaN.
     moved: [f64; 256],
     ny: usize,
     conflicts: Conflicts,
@@ -434,8 +449,8 @@ impl RowHeights {
     }
 }
 
-/// The rows traced whole, as bits: the strata grid has at most 256 rows
-/// (`MAX_TRACED_SAMPLES`); a row past them (never) marks every row.
+/// The rows traced whole, as bits for the first 256 rows; a row past them (an odd N's
+/// narrow grid, 1018 = 2 x 509: rare, slow, never wrong) marks every row.
 #[derive(Default, Clone, Copy)]
 struct Conflicts {
     bits: [u64; 4],
@@ -471,6 +486,32 @@ mod tests {
 
     fn inside(t: &[DVec2; 3], s: DVec2) -> bool {
         (0..3).all(|k| (t[(k + 1) % 3] - t[k]).perp_dot(s - t[k]) > 0.0)
+    }
+
+    /// A sample within an edge's band and near the edge itself is traced (its ray may meet
+    /// the triangle either way in `traced`'s f32 test), also beside a short, nearly vertical
+    /// edge just past its span of a, where no leg of the counting path crosses it.
+    #[test]
+    fn a_sample_in_the_band_beside_an_edge_is_traced() {
+        let (nx, ny) = (32usize, 32usize);
+        let cells = nx * ny;
+        // Both ends above row 12's height (12.5 / 32): its row leg does not cross.
+        let e = edge(DVec2::new(0.5, 0.395), DVec2::new(0.5 + 1e-8, 0.4), 1e-5);
+        let r = DVec2::new(0.25, 0.75);
+        assert!(is_reference(&[e], r));
+        let plans = [EdgeRows::new(&e, r, ny)];
+        let mut a: Vec<f32> = (0..cells).map(|c| ((c % nx) as f32 + 0.5) / nx as f32).collect();
+        let mut b: Vec<f32> = (0..cells).map(|c| ((c / nx) as f32 + 0.5) / ny as f32).collect();
+        // Cell (16, 12): 5e-4 right of the edge (half its band's reach), within its heights.
+        let k = 16 + nx * 12;
+        (a[k], b[k]) = (0.5005, 0.397);
+        assert!(e.side_at(a[k], b[k]).abs() < e.band);
+        let starts: Vec<u32> = (0..=cells as u32).collect();
+        let (mut rel, mut near, mut steps) = (vec![0; cells], vec![0u8; cells], vec![0; cells + 1]);
+        let binned =
+            Binned { grid: (nx, ny), starts: &starts, a: &mut a, b: &mut b, rel: &mut rel, near: &mut near };
+        assert!(count_edges(&plans, binned, &mut steps, |_, _, _| true));
+        assert_ne!(near[k], 0, "a sample within the band beside the edge was settled");
     }
 
     /// On random triangles (large ones spanning many rows, small ones inside one cell, ones

@@ -61,8 +61,8 @@ impl Region {
         // Wholly between o's plane and the light's, not near o's (leaves between a point and
         // its light): the triangle itself, unclipped. The light's rectangle only trims what
         // no sample reaches; `lambda_min` over the whole triangle is at most the trimmed
-        // one's; and the projection stays within 100 light sizes, so the lines' constants
-        // keep their precision (far under the margin).
+        // one's; and the projection is magnified at most 100 times, so the lines' constants
+        // keep their precision far under the margin (which grows with the magnitudes).
         let inside_slab = poly[..3].iter().all(|p| p[2] >= 1e-2 * h && h - p[2] >= 0.0);
         let constraints: [Constraint; 6] = [
             |p, _, tiny| p[2] - tiny,
