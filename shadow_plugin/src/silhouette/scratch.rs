@@ -32,7 +32,8 @@ pub(super) struct Scratch {
     pub(super) mixed: Vec<u8>,
     /// The counted samples of one side binned by cell of the strata grid (row-major): the
     /// cells' starts, each sample's index in `samples`, light coordinates, count and band
-    /// mark, in bin order.
+    /// mark, in bin order. ([`Scratch::test_regions`] bins its samples in them first, with
+    /// its region marks in `near`.)
     pub(super) starts: Vec<u32>,
     pub(super) cursor: Vec<u32>,
     pub(super) cell_of: Vec<u32>,
@@ -47,8 +48,6 @@ pub(super) struct Scratch {
     pub(super) cell_steps: Vec<i32>,
     /// Cell by cell (`query::count_cells`): which cells' samples are drawn.
     pub(super) drawn: Vec<bool>,
-    /// Per sample: held by an alpha-only region (1) or another (2) ([`Scratch::test_regions`]).
-    pub(super) region_marks: Vec<u8>,
     /// Per sample (or cell), bit k of word k / 64: the final verdict, unblocked; the smaller
     /// set is weighed from it, one set bit at a time.
     pub(super) lit: Vec<u64>,
@@ -151,7 +150,7 @@ impl Scratch {
     /// method's time).
     pub(super) fn test_regions(&mut self, (nx, ny): (u32, u32), below: bool) {
         let (nx, ny) = (nx as usize, ny as usize);
-        let Scratch { samples, uncertain, mixed, regions, starts, cursor, order, region_marks, .. } = self;
+        let Scratch { samples, uncertain, mixed, regions, starts, cursor, order, a, b, near, .. } = self;
         // f32 rounding or the horizon warp may put a sample a little off its cell: clamped
         // here, and a region visits a cell of margin around its box.
         let cell = |x: &LightSample| strata_cell(x, nx, ny);
@@ -166,37 +165,42 @@ impl Scratch {
         }
         cursor.clear();
         cursor.extend_from_slice(&starts[..nx * ny]);
-        order.resize(starts[nx * ny] as usize, 0);
+        let total = starts[nx * ny] as usize;
+        order.resize(total, 0);
+        // The binned samples' coordinates in bin order (a region reads one run of them per
+        // row of its box), and per position: 1 held by an alpha-only region, 2 by another.
+        a.resize(total, 0.0);
+        b.resize(total, 0.0);
+        near.clear();
+        near.resize(total, 0);
         for k in (0..samples.len()).filter(|&k| tested(k)) {
             let c = cell(&samples[k]);
-            order[cursor[c] as usize] = k as u32;
+            let pos = cursor[c] as usize;
+            (order[pos], a[pos], b[pos]) = (k as u32, samples[k].a, samples[k].b);
             cursor[c] += 1;
         }
-        // Per sample: 1 held by an alpha-only region, 2 by another.
-        region_marks.clear();
-        region_marks.resize(samples.len(), 0);
+        // A cell of margin around the box (clamped, then truncated: floor, no libm call).
         let span = |lo: f64, hi: f64, n: usize| {
-            let first = if lo.is_finite() { (lo * n as f64).floor() - 1.0 } else { 0.0 };
-            let last = if hi.is_finite() { (hi * n as f64).floor() + 1.0 } else { n as f64 };
-            (first.clamp(0.0, n as f64 - 1.0) as usize, last.clamp(0.0, n as f64 - 1.0) as usize)
+            let top = n as f64 - 1.0;
+            let first = if lo.is_finite() { (lo * n as f64 - 1.0).clamp(0.0, top) } else { 0.0 };
+            let last = if hi.is_finite() { (hi * n as f64 + 1.0).clamp(0.0, top) } else { top };
+            (first as usize, last as usize)
         };
         for r in regions.iter() {
             let ((i0, i1), (j0, j1)) = (span(r.lo.x, r.hi.x, nx), span(r.lo.y, r.hi.y, ny));
             let mark = if r.alpha_only { 1 } else { 2 };
             for j in j0..=j1 {
-                let cells = starts[i0 + nx * j] as usize..starts[i1 + nx * j + 1] as usize;
-                for &k in &order[cells] {
-                    let x = &samples[k as usize];
-                    if region_marks[k as usize] < mark && r.holds(DVec2::new(x.a as f64, x.b as f64)) {
-                        region_marks[k as usize] = mark;
+                for pos in starts[i0 + nx * j] as usize..starts[i1 + nx * j + 1] as usize {
+                    if near[pos] < mark && r.holds(DVec2::new(a[pos] as f64, b[pos] as f64)) {
+                        near[pos] = mark;
                     }
                 }
             }
         }
-        for (k, &m) in region_marks.iter().enumerate() {
+        for (&k, &m) in order.iter().zip(near.iter()) {
             match m {
-                2 => uncertain[k] = true,
-                1 => mixed[k] = MIXED,
+                2 => uncertain[k as usize] = true,
+                1 => mixed[k as usize] = MIXED,
                 _ => {}
             }
         }
