@@ -97,6 +97,17 @@ impl Region {
         for (pt, p) in pts.iter_mut().zip(&poly[..n]) {
             *pt = DVec2::new(p[0] / p[2], p[1] / p[2]);
         }
+        // Unclipped: wholly beyond one side of the grown light, as the clipping would have
+        // found (a region there held no sample, but cost the point its cheaper paths).
+        if inside_slab {
+            let (lo, hi) = (
+                pts[..3].iter().fold(DVec2::INFINITY, |m, p| m.min(*p)),
+                pts[..3].iter().fold(DVec2::NEG_INFINITY, |m, p| m.max(*p)),
+            );
+            if hi.x < -MARGIN || hi.y < -MARGIN || lo.x > 1.0 + MARGIN || lo.y > 1.0 + MARGIN {
+                return None;
+            }
+        }
         let lambda_min = poly[..n].iter().map(|p| p[2] / h).fold(f64::INFINITY, f64::min);
         // A 3D displacement d at depth lambda moves the projection by d / lambda: the band of
         // the triangle's coordinates, in light units.
