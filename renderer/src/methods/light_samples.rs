@@ -25,10 +25,13 @@ pub enum Culling {
     Leaves,
 }
 
+/// Most light samples per shading point `traced` takes (`Traced::prepare` refuses more).
+pub const MAX_TRACED_SAMPLES: u32 = 65536;
+
 /// The most samples in a row of strata: nx is at most the square root of
-/// [`crate::methods::traced::MAX_TRACED_SAMPLES`], which `Traced::prepare` enforces.
+/// [`MAX_TRACED_SAMPLES`].
 const MAX_ROW: usize = 256;
-const _: () = assert!(MAX_ROW * MAX_ROW >= crate::methods::traced::MAX_TRACED_SAMPLES as usize);
+const _: () = assert!(MAX_ROW * MAX_ROW >= MAX_TRACED_SAMPLES as usize);
 
 /// A placeholder for [`PointSamples::for_each`]'s row buffer.
 const EMPTY_SAMPLE: LightSample =

@@ -71,8 +71,9 @@ impl LightShadowing for Unshadowed {
     }
 }
 
-/// Most light samples per shading point `traced` takes.
-pub const MAX_TRACED_SAMPLES: u32 = 65536;
+/// Most light samples per shading point `traced` takes (defined with the sample rows it
+/// bounds, so that the two files do not import each other).
+pub use crate::methods::light_samples::MAX_TRACED_SAMPLES;
 
 /// Parameters of the traced method. `[shadows.traced]` takes no keys ([`NoKeys`]): the sample
 /// count is `[shadows].samples`, and shaft culling is a code-only switch (the same bits
