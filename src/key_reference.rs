@@ -23,7 +23,7 @@ has no effect with the other choices made (`slab_thickness` with `heightfield = 
 Every method table the file gives is checked, whichever method renders.
 
 The other tables (`[[model]]`, `[[quad]]`, `[camera]`, `[image]`, `[[light]]`) are in the
-contract's example (README, "Scene files"), and so is `[integrator]`:
+contract's example (docs/guide.md, "Scene files"), and so is `[integrator]`:
 
 | key | type | default | meaning |
 |---|---|---|---|

@@ -1,5 +1,5 @@
 //! Error metrics against the traced truth, over the pixels each light reaches. The kinds
-//! are those of anchors.md section 4.2; the thresholds are the README's (the edge-table
+//! are those of anchors.md section 4.2; the thresholds are the user's guide's (docs/guide.md, the edge-table
 //! issue's), looser than anchors.md's 0.01 / 0.99, 0.05 and 0.95.
 
 use glam::Vec3;
