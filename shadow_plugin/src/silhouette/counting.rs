@@ -107,9 +107,11 @@ pub(super) struct EdgeRows {
     r_pos: bool,
     /// Whether the edge crosses the reference column (its ends' a on both sides of R.a).
     crosses_column: bool,
-    /// Whether R lies below the line's crossing of the column (then the rows above it are
-    /// beyond).
-    r_below: bool,
+    /// Where the edge crosses the reference column: the rows whose strips come near the
+    /// crossing (C_j's side decided per row), and the rows wholly beyond it from R (empty
+    /// both where it does not cross).
+    column_near: Range<usize>,
+    column_beyond: Range<usize>,
     /// The rows the edge's part may lie in (its row and last legs).
     pub(super) rows: Range<usize>,
 }
@@ -122,6 +124,16 @@ impl EdgeRows {
         // A sample within the band of the line is at most this far from it.
         let reach = if grad > 0.0 { e.band as f64 / grad } else { f64::INFINITY } + END_GAP as f64;
         let (lo, hi) = (e.p0.min(e.p1), e.p0.max(e.p1));
+        let column = s0 as f64 + sa as f64 * r.x;
+        let crosses_column = (r.x > e.p0.x) != (r.x > e.p1.x);
+        let (mut column_near, mut column_beyond) = (0..0, 0..0);
+        if crosses_column && sb != 0.0 {
+            let y_c = -column / sb as f64;
+            let g = 2.0 * e.band as f64 / (sb as f64).abs() + 1e-6;
+            column_near = rows_meeting(y_c - g, y_c + g, ny);
+            // R below the crossing: the rows above it are beyond.
+            column_beyond = if r.y < y_c { column_near.end..ny } else { 0..column_near.start };
+        }
         EdgeRows {
             side: e.side,
             band: e.band,
@@ -136,10 +148,11 @@ impl EdgeRows {
                 (lo.y - reach) as f32,
                 (hi.y + reach) as f32,
             ],
-            column: s0 as f64 + sa as f64 * r.x,
+            column,
             r_pos: e.side_at(ra, rb) > 0.0,
-            crosses_column: (r.x > e.p0.x) != (r.x > e.p1.x),
-            r_below: sb != 0.0 && r.y < -(s0 as f64 + sa as f64 * r.x) / sb as f64,
+            crosses_column,
+            column_near,
+            column_beyond,
             rows: rows_meeting(lo.y - reach, hi.y + reach, ny),
         }
     }
@@ -169,24 +182,10 @@ impl EdgeRows {
         (spans || self.crosses_column) && self.corner_side(y).is_none() || spans && self.side[1] == 0.0
     }
 
-    /// Where the edge crosses the reference column: the rows whose strips come near the
-    /// crossing (C_j's side decided per row), and the rows wholly beyond it from R.
-    fn column_rows(&self, ny: usize) -> Option<(Range<usize>, Range<usize>)> {
-        let sb = self.side[2] as f64;
-        if !self.crosses_column || sb == 0.0 {
-            return None;
-        }
-        let y_c = -self.column / sb;
-        let g = 2.0 * self.band as f64 / sb.abs() + 1e-6;
-        let near = rows_meeting(y_c - g, y_c + g, ny);
-        let beyond = if self.r_below { near.end..ny } else { 0..near.start };
-        Some((near, beyond))
-    }
-
     /// The rows whose own height this edge may conflict with: its rows, and the rows near
     /// its crossing of the reference column.
-    fn conflict_rows(&self, ny: usize) -> [Range<usize>; 2] {
-        [self.rows.clone(), self.column_rows(ny).map_or(0..0, |(near, _)| near)]
+    fn conflict_rows(&self) -> [Range<usize>; 2] {
+        [self.rows.clone(), self.column_near.clone()]
     }
 
     /// The a-range of the edge's part with heights in [lo, hi] (None: no part there).
@@ -332,7 +331,8 @@ pub(super) fn count_edges(
         // The column leg: every row whose C_j is on the other side of the line from R. The
         // rows' own heights grow with j, so those clear of the crossing beyond it are one run
         // of cells; the few near it are decided one by one.
-        if let Some((near, beyond)) = p.column_rows(ny) {
+        if p.crosses_column {
+            let (near, beyond) = (p.column_near.clone(), p.column_beyond.clone());
             let step = p.step(!p.r_pos);
             if !beyond.is_empty() {
                 cell_steps[beyond.start * nx] += step;
@@ -417,7 +417,7 @@ impl RowHeights {
         let mut h = RowHeights { moved: [f64::NAN; 256], ny, conflicts: Conflicts::default() };
         let mut middle = Conflicts::default();
         for p in plans {
-            for rows in p.conflict_rows(ny) {
+            for rows in p.conflict_rows() {
                 for j in rows {
                     if !middle.holds(j) && p.conflicts(j, row_height(j, ny)) {
                         middle.mark(j);
