@@ -65,7 +65,13 @@ fn sphere(r: f64, levels: u32, rho: f32) -> Geometry {
     let mut g = Geometry::default();
     g.materials.push(Material::diffuse([rho; 3]));
     for p in tris {
-        g.triangles.push(SourceTriangle { p: p.map(|x| x * r), n: None, uv: [Vec2::ZERO; 3], material: 0 });
+        g.triangles.push(SourceTriangle {
+            p: p.map(|x| x * r),
+            n: None,
+            uv: [Vec2::ZERO; 3],
+            material: 0,
+            origin: renderer::geometry::instances::TriangleOrigin::LOOSE,
+        });
     }
     g
 }

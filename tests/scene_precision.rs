@@ -208,6 +208,7 @@ fn dropped_triangles_are_warned_about() {
         n: None,
         uv: [glam::Vec2::ZERO; 3],
         material: 0,
+        origin: renderer::geometry::instances::TriangleOrigin::LOOSE,
     });
     geometry.materials.push(renderer::geometry::material::Material::diffuse([0.5; 3]));
     let camera = renderer::Camera::look_at(glam::Vec3::ZERO, -glam::Vec3::Z, glam::Vec3::Y, 40.0);

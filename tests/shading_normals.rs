@@ -23,7 +23,13 @@ const TILT_DEG: f32 = 75.0;
 fn quad(g: &mut Geometry, corner: DVec3, u: DVec3, v: DVec3, n: Option<Vec3>, material: u32) {
     let p = [corner, corner + u, corner + u + v, corner + v];
     for t in [[p[0], p[1], p[2]], [p[0], p[2], p[3]]] {
-        g.triangles.push(SourceTriangle { p: t, n: n.map(|n| [n; 3]), uv: [Vec2::ZERO; 3], material });
+        g.triangles.push(SourceTriangle {
+            p: t,
+            n: n.map(|n| [n; 3]),
+            uv: [Vec2::ZERO; 3],
+            material,
+            origin: renderer::geometry::instances::TriangleOrigin::LOOSE,
+        });
     }
 }
 

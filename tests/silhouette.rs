@@ -194,6 +194,17 @@ fn soups_heightfields_and_stress_meshes_agree_with_the_bvh() {
     assert!(below > 200, "only {below} points counted from below the tangent plane");
 }
 
+/// Meshes placed by several nodes (mirrored, unevenly scaled, nested; two instances closing
+/// into one sphere at a seam; one mesh's two primitives sharing a row), each mesh's edges
+/// found once and offset per instance: every settled sample agrees with the BVH.
+#[test]
+fn instanced_meshes_agree_with_the_bvh() {
+    let dir = TempDir::new("silhouette-instances");
+    let scenes = soups::instanced_soups(&dir, 43);
+    let [settled, ..] = check_all(&scenes, 64, 48, 512);
+    assert!(settled > 1_000_000, "only {settled} settled samples checked");
+}
+
 /// Random soups of alpha-masked triangles (a banded texture: clear, noise, opaque; wrapped
 /// and transformed; constant alphas) among opaque ones: every class is met, and every
 /// settled sample agrees with the BVH (opaque ones counted, clear ones dropped, mixed ones

@@ -338,3 +338,90 @@ pub fn alpha_soups(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
     }
     scenes
 }
+
+/// Meshes placed by several nodes each, from `seed`: a coarse indexed hemisphere with radial
+/// normals, placed as is, mirrored across its rim (the two close into a sphere whose seam
+/// is another instance's boundary), rotated and scaled unevenly, and under a nested
+/// parent; and a bumpy patch in two primitives that share their middle row (a seam inside
+/// one mesh), placed twice, once mirrored. Each under a light of its own size.
+pub fn instanced_soups(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
+    let mut rng = Rng::new(seed);
+    let mut r = move || rng.next_f32();
+    let mut g = GltfBuilder::default();
+    let material = g.material(
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.7, 0.7, 0.7, 1.0]}, "doubleSided": true}),
+    );
+    // The hemisphere: 10 around, 4 rings down to the rim at y = 0, a pole vertex on top.
+    let (around, rings) = (10u16, 4u16);
+    let mut positions = vec![[0.0f32, 1.0, 0.0]];
+    for j in 1..=rings {
+        let th = std::f32::consts::FRAC_PI_2 * j as f32 / rings as f32;
+        for i in 0..around {
+            let ph = std::f32::consts::TAU * i as f32 / around as f32;
+            let y = if j == rings { 0.0 } else { th.cos() };
+            positions.push([th.sin() * ph.cos(), y, th.sin() * ph.sin()]);
+        }
+    }
+    let at = |j: u16, i: u16| if j == 0 { 0 } else { 1 + (j - 1) * around + i % around };
+    let mut indices = Vec::new();
+    for i in 0..around {
+        indices.extend([at(0, 0), at(1, i + 1), at(1, i)]);
+        for j in 1..rings {
+            let (a, b, c, d) = (at(j, i), at(j, i + 1), at(j + 1, i + 1), at(j + 1, i));
+            indices.extend([a, b, c, a, c, d]);
+        }
+    }
+    let pos = g.positions(&positions);
+    let nrm = g.normals(&positions);
+    let idx = g.indices_u16(&indices);
+    let dome =
+        g.mesh(vec![primitive(&[("POSITION", pos), ("NORMAL", nrm)], Some(idx), TRIANGLES, Some(material))]);
+    // The bumpy patch: a 6 x 6 grid, its two halves of rows primitives of their own.
+    let n = 6u16;
+    let grid: Vec<[f32; 3]> = (0..=n)
+        .flat_map(|i| (0..=n).map(move |j| (i, j)))
+        .map(|(i, j)| [i as f32 / n as f32 - 0.5, 0.0, j as f32 / n as f32 - 0.5])
+        .map(|[x, _, z]| [x, 0.15 * r(), z])
+        .collect();
+    let gp = g.positions(&grid);
+    let vertex = |i: u16, j: u16| i * (n + 1) + j;
+    let half = |rows: std::ops::Range<u16>| {
+        let mut idx = Vec::new();
+        for i in rows {
+            for j in 0..n {
+                let (a, b, c, d) = (vertex(i, j), vertex(i + 1, j), vertex(i + 1, j + 1), vertex(i, j + 1));
+                idx.extend([a, c, b, a, d, c]);
+            }
+        }
+        idx
+    };
+    let (lo, hi) = (half(0..n / 2), half(n / 2..n));
+    let (lo, hi) = (g.indices_u16(&lo), g.indices_u16(&hi));
+    let patch = g.mesh(vec![
+        primitive(&[("POSITION", gp)], Some(lo), TRIANGLES, Some(material)),
+        primitive(&[("POSITION", gp)], Some(hi), TRIANGLES, Some(material)),
+    ]);
+    let s = 0.25 + 0.1 * r();
+    let mut nodes = vec![
+        g.node(json!({"mesh": dome, "translation": [-0.4, 0.5, 0.1], "scale": [s, s, s]})),
+        g.node(json!({"mesh": dome, "translation": [-0.4, 0.5, 0.1], "scale": [s, -s, s]})),
+        g.node(json!({"mesh": dome, "translation": [0.5, 0.3, -0.3], "scale": [0.3, 0.15, 0.2],
+            "rotation": [0.2, 0.3, 0.1, 0.927]})),
+        g.node(
+            json!({"mesh": patch, "translation": [0.1, 0.9, 0.4], "rotation": [0.0, 0.0, 0.1305, 0.9914]}),
+        ),
+        g.node(json!({"mesh": patch, "translation": [0.2, 1.2, -0.2], "scale": [-0.8, 1.0, 0.8]})),
+    ];
+    let child = g.node(json!({"mesh": dome, "translation": [0.0, 2.0, 0.0], "scale": [0.6, 0.6, 0.6]}));
+    nodes.push(
+        g.node(json!({"children": [child], "translation": [0.4, -1.6, 0.5], "scale": [0.5, 0.5, 0.5]})),
+    );
+    let scene = g.scene(&nodes);
+    g.set_default_scene(scene);
+    let model = g.write(&dir.path, "instanced");
+    [0.3, 1.2]
+        .iter()
+        .enumerate()
+        .map(|(k, &size)| scene_file(dir, &format!("instanced{k}"), &model, size))
+        .collect()
+}

@@ -263,8 +263,11 @@ fn raw_scene(tris: &[[Vec3; 3]], light: RectLight) -> Scene {
         hi = hi.max(*t);
     }
     Scene {
+        origins: vec![crate::geometry::instances::TriangleOrigin::LOOSE; triangles.len()],
         triangles,
         shading,
+        meshes: Vec::new(),
+        instances: Vec::new(),
         materials: vec![Material::diffuse([0.5; 3])],
         textures: Vec::new(),
         bvh: Some(bvh),

@@ -3,6 +3,7 @@
 //! the hit's own error bound that the one rule for ray origins uses ([`crate::geometry::ray_origin`]).
 
 use crate::geometry::camera::Camera;
+use crate::geometry::instances::{Instance, MeshTopology, TriangleOrigin};
 use crate::geometry::light::RectLight;
 use crate::geometry::material::{Material, Texture};
 use crate::geometry::point::ShadingPoint;
@@ -66,6 +67,11 @@ pub struct Scene {
     /// In BVH order: `bvh` leaves index these directly.
     pub triangles: Vec<Triangle>,
     pub shading: Vec<TriangleShading>,
+    /// Per triangle (BVH order): its instance and index in its mesh.
+    pub origins: Vec<TriangleOrigin>,
+    /// The meshes the instances place, and the instances (see [`crate::geometry::instances`]).
+    pub meshes: Vec<MeshTopology>,
+    pub instances: Vec<Instance>,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     /// `None` for a scene without triangles (every ray misses).

@@ -154,7 +154,13 @@ fn triangles_scene(tris: &[[DVec3; 3]], light: RectLight) -> Scene {
     let mut g = Geometry::default();
     g.materials.push(Material::diffuse([0.5; 3]));
     for t in tris {
-        g.triangles.push(SourceTriangle { p: *t, n: None, uv: [glam::Vec2::ZERO; 3], material: 0 });
+        g.triangles.push(SourceTriangle {
+            p: *t,
+            n: None,
+            uv: [glam::Vec2::ZERO; 3],
+            material: 0,
+            origin: crate::geometry::instances::TriangleOrigin::LOOSE,
+        });
     }
     let camera = Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
     Scene::build(g, vec![light], camera, DVec3::ZERO, Duration::ZERO)

@@ -3,6 +3,7 @@
 //! and warned about, then the BVH.
 
 use crate::geometry::camera::Camera;
+use crate::geometry::instances::{Instance, MeshTopology, TriangleOrigin};
 use crate::geometry::light::RectLight;
 use crate::geometry::material::Material;
 use crate::geometry::precision::{SHAPE_PRECISION, f32_spacing, is_degenerate};
@@ -61,15 +62,17 @@ impl Scene {
         world_offset: DVec3,
         load: Duration,
     ) -> Scene {
-        let Geometry { triangles: source, materials, textures, degenerate, .. } = geometry;
+        let Geometry { triangles: source, materials, textures, degenerate, meshes, instances, .. } = geometry;
         let mut tris = Vec::with_capacity(source.len());
         let mut shading = Vec::with_capacity(source.len());
+        let mut origins = Vec::with_capacity(source.len());
         let mut precision = PrecisionTally { zero_area: degenerate, ..Default::default() };
         for s in &source {
             let Some(face) = precision.keep(s.p, world_offset) else { continue };
             let p = s.p.map(|p| (p - world_offset).as_vec3());
             tris.push(Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() });
             shading.push(TriangleShading { n: s.n.unwrap_or([face; 3]), uv: s.uv, material: s.material });
+            origins.push(s.origin);
         }
         let warnings = precision.warnings();
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
@@ -93,6 +96,7 @@ impl Scene {
             // Reorder once so that leaves index our arrays directly.
             tris = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
             shading = bvh.primitive_indices.iter().map(|&i| shading[i as usize]).collect();
+            origins = bvh.primitive_indices.iter().map(|&i| origins[i as usize]).collect();
             Some(bvh)
         };
         drop(bvh_span);
@@ -112,6 +116,9 @@ impl Scene {
         Scene {
             triangles: tris,
             shading,
+            origins,
+            meshes,
+            instances,
             materials,
             textures,
             bvh,
@@ -133,14 +140,19 @@ impl Geometry {
     pub fn add_quad(&mut self, center: DVec3, u: DVec3, v: DVec3, color: [f32; 3]) {
         self.materials.push(Material::diffuse(color));
         let material = self.materials.len() as u32 - 1;
+        // A mesh of its own: corners 0 1 2 3 as p00 p10 p11 p01.
+        let instance = self.instances.len() as u32;
+        self.instances.push(Instance { mesh: self.meshes.len() as u32, mirrored: false });
+        self.meshes.push(MeshTopology { vertices: 4, corners: vec![[0, 1, 2], [0, 2, 3]] });
         let corner = |a: f64, b: f64| center + a * u + b * v;
         let (p00, p10, p11, p01) =
             (corner(-0.5, -0.5), corner(0.5, -0.5), corner(0.5, 0.5), corner(-0.5, 0.5));
-        for (p, uv) in [
-            ([p00, p10, p11], [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)]),
-            ([p00, p11, p01], [Vec2::new(0.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)]),
+        for (local, p, uv) in [
+            (0, [p00, p10, p11], [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0)]),
+            (1, [p00, p11, p01], [Vec2::new(0.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)]),
         ] {
-            self.triangles.push(SourceTriangle { p, n: None, uv, material });
+            let origin = TriangleOrigin { instance, local };
+            self.triangles.push(SourceTriangle { p, n: None, uv, material, origin });
         }
     }
 }

@@ -20,6 +20,7 @@
 //! sample whose ray may meet one is traced.
 
 use super::alpha::{self, AlphaClass};
+use super::welding::{InstanceEdges, Templates, Welded, instance_side, pack_side, unpack_side};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use renderer::{RectLight, Scene};
@@ -93,9 +94,7 @@ impl EdgeSet {
     pub fn build(scene: &Scene, light: &RectLight) -> EdgeSet {
         let n = scene.triangles.len();
         let mut set = EdgeSet { flags: vec![0; n], ..EdgeSet::default() };
-        // One buffer for both sorts' keys: a fresh 50 MB vector each (metal-rough-spheres)
-        // cost its page faults twice.
-        let mut keys = set.weld(scene);
+        let welded = set.weld(scene);
         let near = near_light_band(scene, light);
         let classes = alpha::classify(scene);
         for (slot, tri) in scene.triangles.iter().enumerate() {
@@ -126,105 +125,77 @@ impl EdgeSet {
         set.stats.alpha_triangles = set.flags.iter().filter(|&&f| f & ALPHA != 0).count() as u64;
         set.stats.near_light_triangles = set.flags.iter().filter(|&&f| f & NEAR_LIGHT != 0).count() as u64;
         set.stats.zero_area_triangles = set.flags.iter().filter(|&&f| f & ZERO_AREA != 0).count() as u64;
-        set.link_edges(light, &classes, &mut keys);
+        set.link_edges(scene, light, &classes, &welded);
         set
     }
 
-    /// Welds vertices at bit-identical positions (-0.0 and 0.0 are one): the corners sorted
-    /// by position (in parallel; ties by corner, so the ids are the same on every run), one
-    /// id per run of equal positions. Measured on metal-rough-spheres (3.1 M corners): a hash
-    /// map took 210 ms. Returns the sorted keys' buffer (for the next sort to reuse).
-    fn weld(&mut self, scene: &Scene) -> Vec<u128> {
-        // Position bits and corner index packed in one u128: one integer comparison.
-        let key = |v: [f32; 3], corner: usize| {
-            let v = Vec3::from(v) + Vec3::ZERO; // -0.0 + 0.0 = 0.0
-            let p = ((v.x.to_bits() as u128) << 64) | ((v.y.to_bits() as u128) << 32) | v.z.to_bits() as u128;
-            (p << 32) | corner as u128
-        };
-        let mut keyed: Vec<u128> = scene
-            .triangles
-            .par_iter()
-            .enumerate()
-            .flat_map_iter(|(t, tri)| {
-                [tri.v0, tri.v1, tri.v2].into_iter().enumerate().map(move |(k, v)| key(v.into(), 3 * t + k))
-            })
-            .collect();
-        keyed.par_sort_unstable();
-        self.corners = vec![[0u32; 3]; scene.triangles.len()];
-        for (n, &k) in keyed.iter().enumerate() {
-            let position = k >> 32;
-            if n == 0 || keyed[n - 1] >> 32 != position {
-                let bits = [(position >> 64) as u32, (position >> 32) as u32, position as u32];
-                self.vertices.push(Vec3::from_array(bits.map(f32::from_bits)));
-            }
-            let corner = k as u32 as usize;
-            self.corners[corner / 3][corner % 3] = self.vertices.len() as u32 - 1;
-        }
-        keyed
-    }
-
     /// Every edge of the opaque (unflagged, not clear), non-degenerate triangles with its
-    /// incident triangles; keeps the potential silhouette edges.
-    fn link_edges(&mut self, light: &RectLight, classes: &[AlphaClass], packed: &mut Vec<u128>) {
-        // (a, b, third, whether the triangle's winding runs a -> b) for every triangle side,
-        // sorted by edge: packed in one u128 (one integer comparison) for the sort.
-        packed.clear();
+    /// incident triangles; keeps the potential silhouette edges. An instance all of whose
+    /// triangles count takes its mesh's edges ([`MeshEdges`], found once per mesh); the
+    /// sides of the others, of loose triangles and of the meshes' boundaries are sorted.
+    fn link_edges(&mut self, scene: &Scene, light: &RectLight, classes: &[AlphaClass], welded: &Welded) {
+        let counted = |slot: usize| self.flags[slot] == 0 && classes[slot] != AlphaClass::Clear;
+        let templates = Templates::new(scene, counted);
+        // The sorted sides: the triangles of instances not whole, loose triangles, and the
+        // whole instances' boundary sides; an edge is a run (first, count) of them.
+        let mut sides: Vec<u128> = Vec::new();
         for (slot, c) in self.corners.iter().enumerate() {
-            if self.flags[slot] != 0 || classes[slot] == AlphaClass::Clear {
-                continue;
-            }
-            for k in 0..3 {
-                let (a, b, third) = (c[k], c[(k + 1) % 3], c[(k + 2) % 3]);
-                let (lo, hi) = (a.min(b) as u128, a.max(b) as u128);
-                packed.push((lo << 96) | (hi << 64) | ((third as u128) << 32) | (a < b) as u128);
+            if counted(slot) && templates.of(scene, scene.origins[slot].instance).is_none() {
+                sides.extend((0..3).map(|k| pack_side(c[k], c[(k + 1) % 3], c[(k + 2) % 3])));
             }
         }
-        packed.par_sort_unstable();
-        let packed = &packed[..];
-        // Side k: (a, b, third, whether the triangle's winding runs a -> b), unpacked.
-        let side = |k: usize| {
-            let p = packed[k];
-            ((p >> 96) as u32, (p >> 64) as u32, (p >> 32) as u32, p as u32 != 0)
-        };
-        let edge_of = |k: usize| (packed[k] >> 64) as u64;
+        for (i, inst) in scene.instances.iter().enumerate() {
+            if let Some(t) = templates.of(scene, i as u32) {
+                sides.extend(t.single.iter().map(|&p| instance_side(welded, i as u32, inst.mirrored, p)));
+            }
+        }
+        sides.par_sort_unstable();
+        let runs: Vec<&[u128]> = sides.chunk_by(|x, y| x >> 64 == y >> 64).collect();
+        // Which edges to keep, in parallel (1.5 M plane tests on metal-rough-spheres): the
+        // sorted runs, then each whole instance's copy of its mesh's edges, only the kept
+        // ones made.
         let corners = light_corners_grown(light);
-        // The runs of sides on one edge, then which edges to keep (in parallel: 1.5 M plane
-        // tests on metal-rough-spheres), then the kept ones in order.
-        let mut runs = Vec::new();
-        let mut i = 0;
-        while i < packed.len() {
-            let mut j = i + 1;
-            while j < packed.len() && edge_of(j) == edge_of(i) {
-                j += 1;
-            }
-            runs.push((i as u32, j as u32));
-            i = j;
-        }
-        let keep: Vec<bool> = runs
-            .par_iter()
-            .map(|&(i, j)| {
-                let (i, j) = (i as usize, j as usize);
-                j - i != 2
-                    || self.silhouette_somewhere(side(i).0, side(i).1, side(i).2, side(i + 1).2, &corners)
+        let keep = |run: &[u128]| {
+            let s = |k: usize| unpack_side(run[k]);
+            run.len() != 2 || self.silhouette_somewhere(s(0).0, s(0).1, s(0).2, s(1).2, &corners)
+        };
+        let keep_sorted: Vec<bool> = runs.par_iter().map(|run| keep(run)).collect();
+        let copies: Vec<InstanceEdges> = (0..scene.instances.len() as u32)
+            .into_par_iter()
+            .map(|i| match templates.of(scene, i) {
+                Some(t) => InstanceEdges::new(t, welded, (i, scene.instances[i as usize].mirrored), keep),
+                None => InstanceEdges::default(),
             })
             .collect();
-        for (&(i, j), keep) in runs.iter().zip(keep) {
-            let (i, j) = (i as usize, j as usize);
-            let (a, b, _, forward) = side(i);
-            self.stats.edges += 1;
-            let count = j - i;
-            match count {
-                1 => self.stats.boundary += 1,
-                2 => {}
-                _ => self.stats.non_manifold += 1,
+        for (run, keep) in runs.iter().zip(keep_sorted) {
+            self.push_edge(run, keep);
+        }
+        for copy in &copies {
+            let mut first = 0;
+            for &n in &copy.lens {
+                self.push_edge(&copy.sides[first..first + n as usize], true);
+                first += n as usize;
             }
-            if keep {
-                self.edges.push(Edge { a, b, first: self.thirds.len() as u32, count: count as u32 });
-                self.thirds.extend((i..j).map(|k| side(k).2));
-                self.forward.push(forward);
-            }
+            self.stats.edges += copy.dropped[0];
+            self.stats.non_manifold += copy.dropped[1];
         }
         self.stats.potential = self.edges.len() as u64;
+    }
+
+    /// Counts the edge of the sides `run` in the stats, and adds it to the set if `keep`.
+    fn push_edge(&mut self, run: &[u128], keep: bool) {
+        let (a, b, _, forward) = unpack_side(run[0]);
+        self.stats.edges += 1;
+        match run.len() {
+            1 => self.stats.boundary += 1,
+            2 => {}
+            _ => self.stats.non_manifold += 1,
+        }
+        if keep {
+            self.edges.push(Edge { a, b, first: self.thirds.len() as u32, count: run.len() as u32 });
+            self.thirds.extend(run.iter().map(|&p| unpack_side(p).2));
+            self.forward.push(forward);
+        }
     }
 
     /// Whether some point of the light sees the edge (a, b) with both faces (third vertices

@@ -51,6 +51,7 @@ mod entry;
 mod projection;
 mod query;
 mod scratch;
+mod welding;
 
 use edge_tree::EdgeTree;
 use edges::EdgeSet;

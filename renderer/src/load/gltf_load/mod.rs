@@ -2,6 +2,7 @@
 //! textures. Node transforms are composed in f64; every node of the default scene is
 //! expanded, nested TRS and matrices alike. Skins and morph targets are ignored (bind pose).
 
+use crate::geometry::instances::{Instance, MeshTopology, TriangleOrigin};
 use crate::geometry::material::{AlphaMode, Material, Texture, TextureRef, Wrap};
 use crate::util::error::SceneError;
 use glam::{Affine2, DMat3, DMat4, DVec3, Mat2, Vec2, Vec3, Vec4};
@@ -25,6 +26,8 @@ pub struct SourceTriangle {
     pub n: Option<[Vec3; 3]>,
     pub uv: [Vec2; 3],
     pub material: u32,
+    /// Its instance and index in its mesh ([`TriangleOrigin::LOOSE`] for a hand-made soup).
+    pub origin: TriangleOrigin,
 }
 
 /// Triangles of one emissive primitive instance: a candidate rectangular light.
@@ -49,6 +52,9 @@ pub struct Geometry {
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub emitters: Vec<EmitterCandidate>,
+    /// Meshes and the instances that place them, which `SourceTriangle::origin` names.
+    pub meshes: Vec<MeshTopology>,
+    pub instances: Vec<Instance>,
     /// Triangles dropped because they have zero area.
     pub degenerate: u64,
     /// One line each: what a user should hear of the files loaded (URIs out of a model's
@@ -246,6 +252,9 @@ fn load_nodes(
     // The spec's nodes form disjoint trees: a node reached twice is shared or in a cycle, and
     // a chain of nodes each listing the next twice is 2^n visits (a hang, not an error).
     let mut visited = std::collections::HashSet::new();
+    // A mesh's accessors (positions, indices, mode per primitive) -> the scene's mesh id,
+    // for meshes already met.
+    let mut meshes: HashMap<Vec<(usize, Option<usize>, u32)>, u32> = HashMap::new();
     while let Some((node, parent, depth)) = stack.pop() {
         if !visited.insert(node.index()) {
             return Err(fail(
@@ -271,8 +280,33 @@ fn load_nodes(
             camera = Some(GltfCamera { world, yfov: p.yfov() as f64 });
         }
         if let Some(mesh) = node.mesh() {
+            // The mesh's topology is welded at its first use; later uses only add an instance.
+            // Keyed by the accessors its triangles are read from, not by the mesh: files
+            // repeat one geometry in meshes that differ only in material (metal-rough-spheres:
+            // 98 meshes, one sphere).
+            let key: Vec<(usize, Option<usize>, u32)> = mesh
+                .primitives()
+                .filter_map(|p| {
+                    Some((
+                        p.get(&Semantic::Positions)?.index(),
+                        p.indices().map(|i| i.index()),
+                        p.mode().as_gl_enum(),
+                    ))
+                })
+                .collect();
+            let known = meshes.get(&key).copied();
+            let mut topology = known.is_none().then(TopologyBuilder::default);
+            let instance = geometry.instances.len() as u32;
+            let mesh_id = known.unwrap_or(geometry.meshes.len() as u32);
+            geometry.instances.push(Instance { mesh: mesh_id, mirrored: world.determinant() < 0.0 });
+            let mut origin = TriangleOrigin { instance, local: 0 };
             for prim in mesh.primitives() {
-                load_primitive(file, &mesh, &prim, world, geometry)?;
+                origin.local =
+                    load_primitive(file, &mesh, &prim, world, origin, topology.as_mut(), geometry)?;
+            }
+            if let Some(t) = topology {
+                meshes.insert(key, mesh_id);
+                geometry.meshes.push(t.finish());
             }
         }
         let children: Vec<_> = node.children().collect();

@@ -4,21 +4,38 @@
 
 use super::*;
 
+/// A mesh's topology as its primitives are read (at its first use): positions in the file's
+/// space and corners into them, welded at the end.
+#[derive(Default)]
+pub(super) struct TopologyBuilder {
+    positions: Vec<Vec3>,
+    corners: Vec<[u32; 3]>,
+}
+
+impl TopologyBuilder {
+    pub(super) fn finish(self) -> MeshTopology {
+        MeshTopology::weld(&self.positions, &self.corners)
+    }
+}
+
 /// Appends the triangles of primitive `prim` of `mesh` (of the file `file` describes), under
-/// the world transform `world`, to `geometry`.
+/// the world transform `world`, to `geometry`, the first as triangle `origin.local` of its
+/// mesh (and to `topology` at the mesh's first use). Returns the next triangle's index.
 pub(super) fn load_primitive(
     file: &FileContext,
     mesh: &gltf::Mesh,
     prim: &gltf::Primitive,
     world: DMat4,
+    origin: TriangleOrigin,
+    topology: Option<&mut TopologyBuilder>,
     geometry: &mut Geometry,
-) -> Result<(), SceneError> {
+) -> Result<u32, SceneError> {
     let FileContext { path, buffers, material_base, default_material } = *file;
     let key = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
     let fail = |k: &str, msg: String| SceneError::new(path, format!("{key}{k}"), msg);
     let mode = prim.mode();
     if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
-        return Ok(()); // points and lines have no area: nothing to render or shadow
+        return Ok(origin.local); // points and lines have no area: nothing to render or shadow
     }
     let material = prim.material();
     let mat_id = match material.index() {
@@ -33,8 +50,14 @@ pub(super) fn load_primitive(
 
     let vertices = read_vertices(prim, uv_set, buffers, &fail)?;
     let corners = triangle_corners(mode, &vertices.indices);
-    push_triangles(world, &vertices, corners, &material, mat_id, geometry);
-    Ok(())
+    let next = origin.local + corners.len() as u32;
+    if let Some(t) = topology {
+        let base = t.positions.len() as u32;
+        t.positions.extend(vertices.positions.iter().map(|&p| Vec3::from(p)));
+        t.corners.extend(corners.iter().map(|c| c.map(|i| base + i)));
+    }
+    push_triangles(world, &vertices, corners, &material, (mat_id, origin), geometry);
+    Ok(next)
 }
 
 /// POSITION, NORMAL, TEXCOORD_`uv_set` and the indices of `prim`, each checked (when
@@ -171,7 +194,7 @@ pub(super) fn push_triangles(
     vertices: &Vertices,
     corners: Vec<[u32; 3]>,
     material: &gltf::Material,
-    mat_id: u32,
+    (mat_id, origin): (u32, TriangleOrigin),
     geometry: &mut Geometry,
 ) {
     let Vertices { positions, normals, uvs, .. } = vertices;
@@ -181,7 +204,8 @@ pub(super) fn push_triangles(
     let is_emitter =
         emissive.max_element() > 0.0 && material.emissive_texture().is_none() && emissive.is_finite();
     let mut emitter_tris = Vec::new();
-    for c in corners {
+    for (local, c) in (origin.local..).zip(corners) {
+        let origin = TriangleOrigin { local, ..origin };
         let mut c = c;
         if mirrored {
             c.swap(1, 2); // keep the winding (and so the front face) under a mirroring transform
@@ -201,7 +225,7 @@ pub(super) fn push_triangles(
             Some(t) => c.map(|i| Vec2::from(t[i as usize])),
             None => [Vec2::ZERO; 3],
         };
-        geometry.triangles.push(SourceTriangle { p, n, uv, material: mat_id });
+        geometry.triangles.push(SourceTriangle { p, n, uv, material: mat_id, origin });
         if is_emitter {
             emitter_tris.push(p);
         }

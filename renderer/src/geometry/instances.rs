@@ -1,0 +1,92 @@
+//! Where each triangle came from: glTF meshes (all primitives of one mesh) with their
+//! topology in the mesh's own space, the instances that place them (one per node that uses
+//! a mesh), and per triangle its instance and its index among its mesh's triangles.
+//!
+//! The triangles themselves are still stored flattened in render space; this record lets a
+//! method that needs connectivity (`silhouette`'s edges) work it out once per mesh instead
+//! of once per copy: one transform maps equal positions to equal positions, so a mesh's
+//! welded vertices are welded in every instance of it.
+
+use glam::Vec3;
+
+/// A mesh's triangles as welded vertex ids in its own space: corners at bit-identical
+/// positions (in the file, -0.0 as 0.0) share an id, across its primitives too.
+#[derive(Debug, Clone, Default)]
+pub struct MeshTopology {
+    /// Vertex ids are `0..vertices`.
+    pub vertices: u32,
+    /// Per triangle of the mesh (every primitive's, in order, the file's winding): its
+    /// corners' ids. Triangles dropped at load (zero area in render space) keep their index.
+    pub corners: Vec<[u32; 3]>,
+}
+
+impl MeshTopology {
+    /// Welds `positions` (bit-identical ones share an id, ids in order of first appearance
+    /// of each position in the sorted order) and maps `corners` (indices into `positions`).
+    pub fn weld(positions: &[Vec3], corners: &[[u32; 3]]) -> MeshTopology {
+        // Position bits and vertex index in one u128: one integer comparison per step.
+        let key = |v: Vec3, i: usize| {
+            let v = v + Vec3::ZERO; // -0.0 + 0.0 = 0.0
+            let p = ((v.x.to_bits() as u128) << 64) | ((v.y.to_bits() as u128) << 32) | v.z.to_bits() as u128;
+            (p << 32) | i as u128
+        };
+        let mut keys: Vec<u128> = positions.iter().enumerate().map(|(i, &v)| key(v, i)).collect();
+        keys.sort_unstable();
+        let mut id = vec![0u32; positions.len()];
+        let mut next = 0u32;
+        for (n, &k) in keys.iter().enumerate() {
+            if n > 0 && keys[n - 1] >> 32 != k >> 32 {
+                next += 1;
+            }
+            id[k as u32 as usize] = next;
+        }
+        let vertices = if positions.is_empty() { 0 } else { next + 1 };
+        MeshTopology { vertices, corners: corners.iter().map(|c| c.map(|i| id[i as usize])).collect() }
+    }
+}
+
+/// One placement of a mesh: a node using it (its transform is applied to the triangles).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Instance {
+    /// Index into the scene's meshes.
+    pub mesh: u32,
+    /// A transform of negative determinant: the loader swapped each triangle's last two
+    /// corners to keep its front face, so its corners are the mesh's in that order.
+    pub mirrored: bool,
+}
+
+/// A triangle's instance and its index among its mesh's triangles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TriangleOrigin {
+    pub instance: u32,
+    pub local: u32,
+}
+
+impl TriangleOrigin {
+    /// A triangle of no mesh (a soup built by hand): welded by position where needed.
+    pub const LOOSE: TriangleOrigin = TriangleOrigin { instance: u32::MAX, local: u32::MAX };
+
+    pub fn is_loose(self) -> bool {
+        self.instance == u32::MAX
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn weld_joins_bit_identical_positions_only() {
+        let p = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(-0.0, 0.0, 0.0), // the same point as the first
+            Vec3::new(1.0, f32::EPSILON, 0.0),
+        ];
+        let t = MeshTopology::weld(&p, &[[0, 1, 3], [2, 3, 1]]);
+        assert_eq!(t.vertices, 3);
+        assert_eq!(t.corners[0][0], t.corners[1][0]);
+        assert_ne!(t.corners[0][1], t.corners[0][2]);
+        assert_eq!(t.corners[0][1], t.corners[1][2]);
+    }
+}
