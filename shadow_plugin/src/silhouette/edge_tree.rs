@@ -19,6 +19,8 @@ use super::edges::EdgeSet;
 use glam::{DVec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::node::Bvh2Node;
+use rayon::prelude::*;
 use renderer::geometry::shaft::{self, Shaft};
 use std::time::Duration;
 
@@ -173,14 +175,17 @@ impl EdgeTree {
         if boxes.is_empty() {
             return EdgeTree::default();
         }
-        // A fast build: the tree is rebuilt per light and frame, and its queries are few
-        // (one per point) against the thousands of rays of the scene's own tree.
-        let params = obvhs::BvhBuildParams::fast_build();
-        let bvh = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
+        // One tree per group (each instance's edges; the rest, flagged triangles with them),
+        // built in parallel, joined under a tree over the groups.
+        let mut ends: Vec<usize> = set.group_ends.iter().map(|&e| e as usize).collect();
+        ends.pop(); // the last group runs on over the flagged triangles
+        ends.push(boxes.len());
+        let bvh = build_grouped(&boxes, &ends);
         let items: Vec<u32> = bvh.primitive_indices.iter().map(|&i| items[i as usize]).collect();
         let cones = cones(&bvh, &items, set);
+        // In parallel, as the leaves' cones (boulder-field, 2.2 M edges: 0.3 s each alone).
         let records = items
-            .iter()
+            .par_iter()
             .map(|&item| if item & TRIANGLE == 0 { EdgeRecord::new(set, item) } else { EdgeRecord::BLANK })
             .collect();
         EdgeTree { bvh: Some(bvh), items, records, cones }
@@ -234,6 +239,74 @@ impl EdgeTree {
     }
 }
 
+/// A tree over `boxes` made of one tree per group (group k: `ends[k - 1]..ends[k]`, empty
+/// ones skipped), each built on its own (obvhs builds on one thread, deterministically;
+/// the groups in parallel), joined under a tree over the groups' bounds split at the
+/// median of their centres. Measured (silhouette's prepare, with the leaves' cones and the
+/// records also made in parallel; one build over every edge before): boulder-field (2.2 M
+/// edges in 100 instances) 1.78 -> 1.02 s, metal-rough-spheres (279 k in 98) 0.19 ->
+/// 0.11 s; the walks on the joined tree cost the same (flight-helmet, sauerbraten-zdm2,
+/// glass-vase-flowers, toy-car within 1%).
+fn build_grouped(boxes: &[Aabb], ends: &[usize]) -> Bvh2 {
+    let ranges: Vec<std::ops::Range<usize>> = ends
+        .iter()
+        .scan(0, |start, &end| Some(std::mem::replace(start, end)..end))
+        .filter(|r| !r.is_empty())
+        .collect();
+    // A fast build: the tree is rebuilt per light and frame, and its queries are few (one
+    // per block of points) against the thousands of rays of the scene's own tree.
+    let params = obvhs::BvhBuildParams::fast_build();
+    let trees: Vec<Bvh2> = ranges
+        .par_iter()
+        .map(|r| obvhs::bvh2::builder::build_bvh2(&boxes[r.clone()], params, &mut Duration::default()))
+        .collect();
+    if trees.len() == 1 {
+        let mut tree = trees.into_iter().next().expect("one tree");
+        let start = ranges[0].start as u32;
+        tree.primitive_indices.iter_mut().for_each(|i| *i += start);
+        return tree;
+    }
+    let mut joined = Bvh2 { nodes: vec![Bvh2Node::default()], ..Bvh2::default() };
+    let mut order: Vec<usize> = (0..trees.len()).collect();
+    join(&mut joined, &trees, &ranges, &mut order, 0);
+    joined
+}
+
+/// Fills node `slot` of `joined` with a tree over `groups` (their trees and item ranges):
+/// the group's own tree where one is left, else two children over the halves of `groups`
+/// sorted along the widest axis of their roots' centres.
+fn join(
+    joined: &mut Bvh2,
+    trees: &[Bvh2],
+    ranges: &[std::ops::Range<usize>],
+    groups: &mut [usize],
+    slot: usize,
+) {
+    if let [g] = groups {
+        let (tree, start) = (&trees[*g], ranges[*g].start as u32);
+        let (node_base, prim_base) = (joined.nodes.len() as u32 - 1, joined.primitive_indices.len() as u32);
+        // Node k > 0 of the group's tree goes to node_base + k; its root to `slot`.
+        let moved = |mut n: Bvh2Node| {
+            n.first_index += if n.prim_count == 0 { node_base } else { prim_base };
+            n
+        };
+        joined.nodes[slot] = tree.nodes.first().copied().map(moved).expect("a tree has a root");
+        joined.nodes.extend(tree.nodes[1..].iter().copied().map(moved));
+        joined.primitive_indices.extend(tree.primitive_indices.iter().map(|&i| start + i));
+        return;
+    }
+    let root = |g: usize| trees[g].nodes[0].aabb;
+    let bounds = groups.iter().fold(Aabb::empty(), |b, &g| b.union(&root(g)));
+    let axis = bounds.largest_axis();
+    groups.sort_by(|&x, &y| root(x).center()[axis].total_cmp(&root(y).center()[axis]).then(x.cmp(&y)));
+    let first = joined.nodes.len();
+    joined.nodes.extend([Bvh2Node::default(); 2]);
+    joined.nodes[slot] = Bvh2Node::new(bounds, 0, first as u32);
+    let (lo, hi) = groups.split_at_mut(groups.len() / 2);
+    join(joined, trees, ranges, lo, first);
+    join(joined, trees, ranges, hi, first + 1);
+}
+
 /// The face planes of an item: an edge between exactly two faces gives both, with normals
 /// oriented so that it weighs 0 exactly where the origin is on one side of both
 /// (orient3d(o, e0, e1, c) = -N . (o - e0), N = (e1 - e0) x (c - e0): the weight is 0 iff
@@ -270,13 +343,12 @@ fn cones(bvh: &Bvh2, items: &[u32], set: &EdgeSet) -> Vec<Cone> {
             stack.extend([node.first_index as usize, node.first_index as usize + 1]);
         }
     }
-    let mut planes_buf = Vec::new();
-    for &i in order.iter().rev() {
-        let node = &bvh.nodes[i];
-        cones[i] = if node.prim_count == 0 {
-            let first = node.first_index as usize;
-            Cone::merge(&cones[first], &cones[first + 1])
-        } else {
+    // The leaves' cones (most of the work) in parallel, then the merges children first.
+    let leaf_cones: Vec<(usize, Cone)> = order
+        .par_iter()
+        .filter(|&&i| bvh.nodes[i].prim_count != 0)
+        .map_init(Vec::new, |planes_buf, &i| {
+            let node = &bvh.nodes[i];
             planes_buf.clear();
             let range = node.first_index as usize..(node.first_index + node.prim_count) as usize;
             let mut all = true;
@@ -286,8 +358,18 @@ fn cones(bvh: &Bvh2, items: &[u32], set: &EdgeSet) -> Vec<Cone> {
                     None => all = false,
                 }
             }
-            if all { Cone::of(&planes_buf) } else { Cone::NONE }
-        };
+            (i, if all { Cone::of(planes_buf) } else { Cone::NONE })
+        })
+        .collect();
+    for (i, cone) in leaf_cones {
+        cones[i] = cone;
+    }
+    for &i in order.iter().rev() {
+        let node = &bvh.nodes[i];
+        if node.prim_count == 0 {
+            let first = node.first_index as usize;
+            cones[i] = Cone::merge(&cones[first], &cones[first + 1]);
+        }
     }
     cones
 }
@@ -295,6 +377,47 @@ fn cones(bvh: &Bvh2, items: &[u32], set: &EdgeSet) -> Vec<Cone> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A tree joined from groups' trees holds every item once, each leaf's box holds its
+    /// items' boxes and each inner node's its children's (random boxes, random groups, some
+    /// empty, one group alone).
+    #[test]
+    fn a_joined_tree_holds_every_item_once_in_boxes_that_bound_them() {
+        let mut uniform = crate::silhouette::uniform(0x6a09_e667_f3bc_c908);
+        let mut next = || uniform() as f32;
+        for round in 0..40 {
+            let n = 1 + (next() * 300.0) as usize;
+            let boxes: Vec<Aabb> = (0..n)
+                .map(|_| {
+                    let c = Vec3A::new(next(), next(), next()) * 10.0;
+                    let h = Vec3A::new(next(), next(), next()) * 0.5;
+                    Aabb::new(c - h, c + h)
+                })
+                .collect();
+            let mut ends: Vec<usize> = (0..(round % 7)).map(|_| (next() * n as f32) as usize).collect();
+            ends.push(n);
+            ends.sort();
+            let bvh = build_grouped(&boxes, &ends);
+            let mut seen = vec![0; n];
+            let holds = |outer: &Aabb, inner: &Aabb| {
+                outer.min.cmple(inner.min).all() && outer.max.cmpge(inner.max).all()
+            };
+            for node in &bvh.nodes {
+                if node.prim_count == 0 {
+                    for child in [node.first_index, node.first_index + 1] {
+                        assert!(holds(&node.aabb, &bvh.nodes[child as usize].aabb), "round {round}");
+                    }
+                } else {
+                    for k in node.first_index..node.first_index + node.prim_count {
+                        let item = bvh.primitive_indices[k as usize] as usize;
+                        seen[item] += 1;
+                        assert!(holds(&node.aabb, &boxes[item]), "round {round}");
+                    }
+                }
+            }
+            assert!(seen.iter().all(|&s| s == 1), "round {round}: {seen:?}");
+        }
+    }
 
     /// Wherever a cone (of a leaf, or merged from two) claims an origin is on one side of
     /// its planes, every plane it bounds has the origin strictly on one and the same side;

@@ -58,6 +58,9 @@ pub struct EdgeSet {
     pub flags: Vec<u8>,
     /// The slots of the flagged triangles.
     pub flagged: Vec<u32>,
+    /// Where each group of `edges` ends (edges of one instance, or the sorted rest): the
+    /// edge tree is built per group.
+    pub group_ends: Vec<u32>,
     /// Counts for the run report.
     pub stats: EdgeStats,
 }
@@ -87,7 +90,8 @@ impl EdgeSet {
             + self.forward.len()
             + self.flagged.len() * 4
             + self.corners.len() * 12
-            + self.flags.len()) as u64
+            + self.flags.len()
+            + self.group_ends.len() * 4) as u64
     }
 
     /// The edge set of `scene`'s triangles for `light`.
@@ -170,6 +174,7 @@ impl EdgeSet {
         for (run, keep) in runs.iter().zip(keep_sorted) {
             self.push_edge(run, keep);
         }
+        self.group_ends.push(self.edges.len() as u32);
         for copy in &copies {
             let mut first = 0;
             for &n in &copy.lens {
@@ -178,6 +183,9 @@ impl EdgeSet {
             }
             self.stats.edges += copy.dropped[0];
             self.stats.non_manifold += copy.dropped[1];
+            if !copy.lens.is_empty() {
+                self.group_ends.push(self.edges.len() as u32);
+            }
         }
         self.stats.potential = self.edges.len() as u64;
     }
