@@ -31,8 +31,14 @@ pub(super) struct ActiveEdge {
     /// `side(a, b) = s0 + sa a + sb b`: orient3d(o, e0, e1, s) scaled to O(1), the sign of the
     /// sample's side. In f32, like the samples: the band covers its rounding.
     pub(super) side: [f32; 3],
-    /// |side| under this: the sample is traced.
+    /// |side| under this at a sample: it is traced (`traced`'s own f32 ray test may go
+    /// either way there, and this side's evaluation).
     pub(super) band: f32,
+    /// |side| under this at a point of a path (the reference, C_j, M): its sign is not
+    /// sure. Only this side's own evaluation (f64 coefficients rounded to f32, an f32
+    /// evaluation) matters there: no ray is aimed at a path's points, the count changes
+    /// where the path crosses the exact projection.
+    pub(super) path_band: f32,
     /// The clipped projection's ends.
     pub(super) p0: DVec2,
     pub(super) p1: DVec2,
@@ -57,7 +63,7 @@ const END_GAP: f32 = 4.0 * f32::EPSILON;
 pub(super) fn is_reference(active: &[ActiveEdge], r: DVec2) -> bool {
     let (ra, rb) = (r.x as f32, r.y as f32);
     active.iter().all(|e| {
-        e.side_at(ra, rb).abs() > 4.0 * e.band
+        e.side_at(ra, rb).abs() > 4.0 * e.path_band
             && (r.x - e.p0.x).abs() > END_GAP as f64 * 4.0
             && (r.x - e.p1.x).abs() > END_GAP as f64 * 4.0
     })
@@ -90,6 +96,7 @@ fn rows_meeting(lo: f64, hi: f64, ny: usize) -> Range<usize> {
 pub(super) struct EdgeRows {
     side: [f32; 3],
     band: f32,
+    path_band: f32,
     weight: i32,
     p0: DVec2,
     p1: DVec2,
@@ -129,7 +136,7 @@ impl EdgeRows {
         let (mut column_near, mut column_beyond) = (0..0, 0..0);
         if crosses_column && sb != 0.0 {
             let y_c = -column / sb as f64;
-            let g = 2.0 * e.band as f64 / (sb as f64).abs() + 1e-6;
+            let g = 2.0 * e.path_band as f64 / (sb as f64).abs() + 1e-6;
             column_near = rows_meeting(y_c - g, y_c + g, ny);
             // R below the crossing: the rows above it are beyond.
             column_beyond = if r.y < y_c { column_near.end..ny } else { 0..column_near.start };
@@ -137,6 +144,7 @@ impl EdgeRows {
         EdgeRows {
             side: e.side,
             band: e.band,
+            path_band: e.path_band,
             weight: e.weight,
             p0: e.p0,
             p1: e.p1,
@@ -165,7 +173,7 @@ impl EdgeRows {
     /// The side of C = (R.a, y), or `None` where C lies within (twice) the band of the line.
     fn corner_side(&self, y: f64) -> Option<bool> {
         let v = self.column + self.side[2] as f64 * y;
-        (v.abs() > 2.0 * self.band as f64).then_some(v > 0.0)
+        (v.abs() > 2.0 * self.path_band as f64).then_some(v > 0.0)
     }
 
     /// Whether height `y` cannot be row `j`'s own: within the ends' gap of an end's height
@@ -239,7 +247,7 @@ fn row_work(p: &EdgeRows, j: usize, y: f64, (nx, ny): (usize, usize)) -> Option<
             return Some(RowWork::Conflict);
         }
         // Cells clear of the line's crossing of y_j by twice the band: one side for every M.
-        g = g.max(2.0 * p.band as f64 / sa.abs() + 2.0 * CELL_MARGIN);
+        g = g.max(2.0 * p.path_band as f64 / sa.abs() + 2.0 * CELL_MARGIN);
         let (i0, i1) = (cell(xa - g), cell(xb + g));
         // Right of the line (growing a) is the + side where sa > 0; the run on the side
         // other than C_j's crosses.
@@ -272,7 +280,7 @@ fn count_row(p: &EdgeRows, y: f32, leg: Option<bool>, row: Row) {
     let at_y = s0 + sb * y;
     let [x_lo, x_hi] = p.ends_a;
     let [box_a0, box_a1, box_b0, box_b1] = p.near_box;
-    let (w, band) = (p.weight, p.band);
+    let (w, band, path_band) = (p.weight, p.band, p.path_band);
     let (spans, pos_c) = (leg.is_some(), leg.unwrap_or(false));
     let n = row.rel.len().min(row.near.len()).min(row.a.len()).min(row.b.len());
     let (a, b, rel, near) = (&row.a[..n], &row.b[..n], &mut row.rel[..n], &mut row.near[..n]);
@@ -292,7 +300,7 @@ fn count_row(p: &EdgeRows, y: f32, leg: Option<bool>, row: Row) {
         // edge, just past its span of a); or a within the ends' gap of an end's a.
         let wide = (x > x_lo - END_GAP) & (x < x_hi + END_GAP);
         let in_box = (x > box_a0) & (x < box_a1) & (yb > box_b0) & (yb < box_b1);
-        let near_m = (v_m.abs() < band) & (spans | wide);
+        let near_m = (v_m.abs() < path_band) & (spans | wide);
         let near_s = (v_s.abs() < band) & (wide | in_box);
         let near_end = ((x - x_lo).abs() < END_GAP) | ((x - x_hi).abs() < END_GAP);
         rel[k] += step + last_step;
@@ -481,7 +489,7 @@ mod tests {
     fn edge(p0: DVec2, p1: DVec2, band: f32) -> ActiveEdge {
         let d = p1 - p0;
         let side = [(d.y * p0.x - d.x * p0.y) as f32, -d.y as f32, d.x as f32];
-        ActiveEdge { side, band, p0, p1, weight: 1 }
+        ActiveEdge { side, band, path_band: band / 4.0, p0, p1, weight: 1 }
     }
 
     fn inside(t: &[DVec2; 3], s: DVec2) -> bool {

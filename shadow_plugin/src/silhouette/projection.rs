@@ -303,17 +303,19 @@ pub(super) fn push(active: &mut Vec<ActiveEdge>, frame: &Frame, e0: DVec3, e1: D
         let sa = n.dot(frame.u);
         let sb = n.dot(frame.v);
         let s0 = n.dot(frame.centre - frame.o) - 0.5 * (sa + sb);
-        // side(s) = n . (s - o). The intersector's rounding moves the edge relative to o by
-        // ulps of their own coordinates (tvec = o - v0, the edge vectors): the side moves by
-        // |shift x (e1 - e0)| |s - o|. It aims the ray at s with the rounding of s and of
-        // the unit direction (ulps of the light's coordinates, or of the ray's length):
-        // the side moves by |n| times that. Measured by the light's coordinates alone, the
-        // first term made the band cover most of the light for edges near a point of a
-        // small model under a distant light (toy-car: 156 points traced whole).
+        // side(s) = n . (s - o). `traced` aims its ray at s with the rounding of s and of
+        // the f32 unit direction (ulps of the light's coordinates, or of the ray's length):
+        // the side moves by |n| times that, taken 4 times over. Its test then moves the
+        // vertices into the ray's frame in f64 (`watertight`): the edge shifts relative to o
+        // by f64 ulps of their coordinates, the side by |shift x (e1 - e0)| |s - o|. (With
+        // f32 ulps there, as for the f32 test this one replaced, an edge a few millimetres
+        // from the point got a band of cells: a sample in ten traced on boulder-field, 0.1
+        // of them with metal-rough-spheres; band_tests measured that bound 1000x loose.)
         let m_edge = frame.o.abs().max_element().max(e0.abs().max_element()).max(e1.abs().max_element());
         let m_light = frame.magnitude.max(frame.reach);
         let ulps = BAND_ULPS * f32::EPSILON as f64 * 0.5;
-        let band = ulps * ((e1 - e0).length() * frame.reach * m_edge + n.length() * m_light);
+        let ulps64 = BAND_ULPS * f64::EPSILON * 0.5;
+        let band = ulps64 * (e1 - e0).length() * frame.reach * m_edge + 4.0 * ulps * n.length() * m_light;
         // Scaled to O(1) for f32 (tiny and huge scenes alike); the band grows by the f32
         // evaluation's rounding (three products and sums of coefficients rounded once).
         let scale = s0.abs().max(sa.abs()).max(sb.abs());
@@ -325,7 +327,11 @@ pub(super) fn push(active: &mut Vec<ActiveEdge>, frame: &Frame, e0: DVec3, e1: D
         let side = [(s0 * inv) as f32, (sa * inv) as f32, (sb * inv) as f32];
         let rounding = 8.0 * f32::EPSILON as f64 * (side[0].abs() + side[1].abs() + side[2].abs()) as f64;
         let band = (band * inv).max(rounding) as f32 * 1.001;
-        active.push(ActiveEdge { side, band, p0, p1, weight });
+        // The f64 coefficients' own error (a few ulps of their terms) under the f32 one.
+        let exact =
+            1e-14 * n.length() * (frame.u.length() + frame.v.length() + (frame.centre - frame.o).length());
+        let path_band = (rounding + exact * inv) as f32 * 1.001;
+        active.push(ActiveEdge { side, band, path_band, p0, p1, weight });
     }
 }
 
