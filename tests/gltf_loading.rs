@@ -914,3 +914,63 @@ look_at = [0.0, 0.0, 0.0]
         );
     }
 }
+
+/// Meshes and instances as loaded: two glTF meshes reading the same accessors (differing
+/// in material only) are one mesh; a mesh of its own accessors is another; every node
+/// using one is an instance (mirrored where its transform flips). Through the mesh's welded
+/// ids, every triangle's corners land where the flattened triangle's do: equal ids, equal
+/// render-space positions (what `silhouette`'s connectivity per mesh relies on), and the
+/// quad of the scene file is a mesh of its own.
+#[test]
+fn meshes_sharing_accessors_are_one_mesh_placed_by_each_node() {
+    let dir = TempDir::new("instances");
+    let mut b = GltfBuilder::new();
+    // A square of two triangles, its four corners repeated (a seam: six vertices, four
+    // positions), and a lone triangle.
+    let square = b.positions(&[
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 0.0, 1.0],
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 1.0],
+        [0.0, 0.0, 1.0],
+    ]);
+    let lone = b.positions(&[[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.0, 0.5, 0.5]]);
+    let red = b.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [1.0, 0.0, 0.0, 1.0]}}));
+    let blue = b.material(json!({"pbrMetallicRoughness": {"baseColorFactor": [0.0, 0.0, 1.0, 1.0]}}));
+    let m0 = b.mesh(vec![primitive(&[("POSITION", square)], None, TRIANGLES, Some(red))]);
+    let m1 = b.mesh(vec![primitive(&[("POSITION", square)], None, TRIANGLES, Some(blue))]);
+    let m2 = b.mesh(vec![primitive(&[("POSITION", lone)], None, TRIANGLES, None)]);
+    let nodes = [
+        b.node(json!({"mesh": m0, "translation": [0.0, 0.0, -3.0]})),
+        b.node(json!({"mesh": m1, "translation": [2.0, 0.1, -3.0], "scale": [1.0, 1.0, -1.0]})),
+        b.node(json!({"mesh": m0, "translation": [-2.0, 0.2, -3.0], "rotation": [0.0, 0.3826834, 0.0, 0.9238795]})),
+        b.node(json!({"mesh": m2, "translation": [0.0, 1.0, -3.0]})),
+    ];
+    let s = b.scene(&nodes);
+    b.set_default_scene(s);
+    b.write(&dir.path, "instances");
+    let quad = "[[quad]]\ncenter = [0.0, -1.0, 0.0]\nu = [4.0, 0.0, 0.0]\nv = [0.0, 0.0, -4.0]\n";
+    let scene = load_scene(&dir, &format!("{}{quad}", model_toml("instances"))).expect("loads");
+    assert_eq!(scene.meshes.len(), 3, "the square, the lone triangle, the quad");
+    assert_eq!(scene.instances.len(), 5);
+    assert_eq!(scene.meshes[0].vertices, 4, "the square's six vertices welded to four");
+    assert_eq!(scene.instances.iter().filter(|i| i.mirrored).count(), 1);
+    assert_eq!(scene.instances[0].mesh, scene.instances[1].mesh);
+    assert_eq!(scene.instances[0].mesh, scene.instances[2].mesh);
+    // Per instance and mesh id, the render-space position every corner with that id has.
+    let mut seen = std::collections::HashMap::new();
+    for (slot, (tri, o)) in scene.triangles.iter().zip(&scene.origins).enumerate() {
+        assert!(!o.is_loose(), "slot {slot}");
+        let inst = scene.instances[o.instance as usize];
+        let mut c = scene.meshes[inst.mesh as usize].corners[o.local as usize];
+        if inst.mirrored {
+            c.swap(1, 2);
+        }
+        for (k, v) in [tri.v0, tri.v1, tri.v2].into_iter().enumerate() {
+            let at = *seen.entry((o.instance, c[k])).or_insert(v);
+            assert_eq!(at, v, "slot {slot} corner {k}: id {} at two positions", c[k]);
+        }
+    }
+    assert_eq!(seen.len(), 4 + 4 + 4 + 3 + 4, "every corner of every instance met");
+}
