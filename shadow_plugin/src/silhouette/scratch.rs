@@ -179,11 +179,15 @@ impl Scratch {
             (order[pos], a[pos], b[pos]) = (k as u32, samples[k].a, samples[k].b);
             cursor[c] += 1;
         }
-        // A cell of margin around the box (clamped, then truncated: floor, no libm call).
+        // The cells the box overlaps, and the next one where the box ends within 1e-4 of a
+        // cell's border: a sample is binned where it landed, by the f32 product a nx, whose
+        // rounding (2e-6 of a cell at 32 x 32) is all that may put one inside the box in a
+        // cell beside it. (Clamped, then truncated: floor, no libm call.) A cell of margin
+        // all round tested 9 cells for a leaf in one (glass-vase-flowers: 27% of the time).
         let span = |lo: f64, hi: f64, n: usize| {
             let top = n as f64 - 1.0;
-            let first = if lo.is_finite() { (lo * n as f64 - 1.0).clamp(0.0, top) } else { 0.0 };
-            let last = if hi.is_finite() { (hi * n as f64 + 1.0).clamp(0.0, top) } else { top };
+            let first = if lo.is_finite() { (lo * n as f64 - 1e-4).clamp(0.0, top) } else { 0.0 };
+            let last = if hi.is_finite() { (hi * n as f64 + 1e-4).clamp(0.0, top) } else { top };
             (first as usize, last as usize)
         };
         for r in regions.iter() {
