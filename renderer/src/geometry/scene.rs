@@ -287,21 +287,20 @@ impl Scene {
         }
     }
 
-    /// Whether the shadow ray [`Scene::segment_occluded_from`] builds meets triangle `slot`
-    /// (alpha test honoured): the same ray and the same test its traversal applies to that
-    /// triangle, for a method that knows which few triangles can block it.
-    pub fn segment_meets_triangle(
+    /// Whether the shadow ray [`Scene::segment_occluded_from`] builds meets any of the
+    /// triangles `slots` (alpha test honoured), tried in order until one is met: the same ray
+    /// and the same test its traversal applies to each, for a method that knows which few
+    /// triangles can block it. The ray is built once for them all.
+    pub fn segment_meets_any(
         &self,
         origin: Vec3,
         target: Vec3,
-        target_error: Vec3,
-        target_normal: Vec3,
-        slot: usize,
+        (target_error, target_normal): (Vec3, Vec3),
+        slots: impl IntoIterator<Item = usize>,
     ) -> bool {
-        match shadow_ray_from(origin, target, target_error, target_normal) {
-            Some(ray) => self.hit_distance(&ShearedRay::new(&ray), ray.tmax, slot) < ray.tmax,
-            None => false,
-        }
+        let Some(ray) = shadow_ray_from(origin, target, target_error, target_normal) else { return false };
+        let sheared = ShearedRay::new(&ray);
+        slots.into_iter().any(|slot| self.hit_distance(&sheared, ray.tmax, slot) < ray.tmax)
     }
 
     /// A bound on the magnitude of every coordinate in the scene (triangles and lights), for

@@ -364,17 +364,13 @@ impl<'a> PointSamples<'a> {
         Some(LightSample { a, b, target, height, proven, stratum: i + nx * j, scale })
     }
 
-    /// Whether `s`'s shadow ray (`traced`'s own) meets triangle `slot`, alone.
-    pub fn meets(&self, scene: &Scene, s: &LightSample, slot: usize) -> bool {
+    /// Whether `s`'s shadow ray (`traced`'s own) meets any of the triangles `slots`, alone
+    /// (tried in order until one is met).
+    pub fn meets_any(&self, scene: &Scene, s: &LightSample, slots: impl IntoIterator<Item = usize>) -> bool {
         let point = &self.q.point;
         let from = if s.height < 0.0 { offset_origin(point, s.target - point.p) } else { self.origin };
-        scene.segment_meets_triangle(
-            from,
-            s.target,
-            self.light.point_error(s.a, s.b),
-            self.light.normal,
-            slot,
-        )
+        let ends = (self.light.point_error(s.a, s.b), self.light.normal);
+        scene.segment_meets_any(from, s.target, ends, slots)
     }
 
     /// Whether `s`'s shadow ray ([`PointSamples::occluded`]'s) meets a triangle other than

@@ -30,6 +30,10 @@ pub(super) struct Scratch {
     /// Per sample: [`MIXED`] where only alpha-tested triangles with holes may block it beyond
     /// the opaque count, then [`MIXED_LIT`] or [`MIXED_BLOCKED`] once tested against them.
     pub(super) mixed: Vec<u8>,
+    /// One side's (sample, alpha-only region) pairs where the region holds the sample: the
+    /// triangles a [`MIXED`] sample is tested against (sample in the high half, region in the
+    /// low; sorted by sample there).
+    pub(super) mixed_pairs: Vec<u64>,
     /// The counted samples of one side binned by cell of the strata grid (row-major): the
     /// cells' starts, each sample's index in `samples`, light coordinates, count and band
     /// mark, in bin order. ([`Scratch::test_regions`] bins its samples in them first, with
@@ -150,7 +154,20 @@ impl Scratch {
     /// method's time).
     pub(super) fn test_regions(&mut self, (nx, ny): (u32, u32), below: bool) {
         let (nx, ny) = (nx as usize, ny as usize);
-        let Scratch { samples, uncertain, mixed, regions, starts, cursor, order, a, b, near, .. } = self;
+        let Scratch {
+            samples,
+            uncertain,
+            mixed,
+            regions,
+            starts,
+            cursor,
+            order,
+            a,
+            b,
+            near,
+            mixed_pairs,
+            ..
+        } = self;
         // f32 rounding or the horizon warp may put a sample a little off its cell: clamped
         // here, and a region visits a cell of margin around its box.
         let cell = |x: &LightSample| strata_cell(x, nx, ny);
@@ -190,13 +207,21 @@ impl Scratch {
             let last = if hi.is_finite() { (hi * n as f64 + 1e-4).clamp(0.0, top) } else { top };
             (first as usize, last as usize)
         };
-        for r in regions.iter() {
+        mixed_pairs.clear();
+        for (index, r) in regions.iter().enumerate() {
             let ((i0, i1), (j0, j1)) = (span(r.lo.x, r.hi.x, nx), span(r.lo.y, r.hi.y, ny));
-            let mark = if r.alpha_only { 1 } else { 2 };
             for j in j0..=j1 {
                 for pos in starts[i0 + nx * j] as usize..starts[i1 + nx * j + 1] as usize {
-                    if near[pos] < mark && r.holds(DVec2::new(a[pos] as f64, b[pos] as f64)) {
-                        near[pos] = mark;
+                    // An alpha-only region records every sample it holds (its triangle is one
+                    // to test); another makes the sample traced.
+                    if near[pos] == 2 || !r.holds(DVec2::new(a[pos] as f64, b[pos] as f64)) {
+                        continue;
+                    }
+                    if r.alpha_only {
+                        near[pos] = 1;
+                        mixed_pairs.push((order[pos] as u64) << 32 | index as u64);
+                    } else {
+                        near[pos] = 2;
                     }
                 }
             }
