@@ -101,30 +101,32 @@ impl EdgeSet {
         let welded = set.weld(scene);
         let near = near_light_band(scene, light);
         let classes = alpha::classify(scene);
-        for (slot, tri) in scene.triangles.iter().enumerate() {
+        // Per triangle, in parallel (8.2 M on boulder-field: 65 ms on one thread).
+        let (normal, centre) = (light.normal.as_dvec3(), light.center.as_dvec3());
+        let corners = &set.corners;
+        set.flags.par_iter_mut().enumerate().for_each(|(slot, flags)| {
+            let tri = &scene.triangles[slot];
             let v = [Vec3::from(tri.v0), Vec3::from(tri.v1), Vec3::from(tri.v2)];
             match classes[slot] {
-                AlphaClass::NoTest => {}
-                AlphaClass::Opaque => set.stats.alpha_opaque_triangles += 1,
+                AlphaClass::NoTest | AlphaClass::Opaque => {}
                 // Never met by any ray: neither flagged nor counted, whatever its position.
-                AlphaClass::Clear => {
-                    set.stats.alpha_clear_triangles += 1;
-                    continue;
-                }
-                AlphaClass::Mixed => set.flags[slot] |= ALPHA,
+                AlphaClass::Clear => return,
+                AlphaClass::Mixed => *flags |= ALPHA,
             }
             // Plus the rounding of this triangle's own coordinates (not the scene's largest:
             // a quad 10^6 m away flagged every triangle within 10 m of the light).
             let band = near + 1e-5 * v.iter().map(|x| x.abs().max_element()).fold(0.0f32, f32::max) as f64;
-            if v.iter().any(|x| (light.normal.as_dvec3()).dot(x.as_dvec3() - light.center.as_dvec3()) < band)
-            {
-                set.flags[slot] |= NEAR_LIGHT;
+            if v.iter().any(|x| normal.dot(x.as_dvec3() - centre) < band) {
+                *flags |= NEAR_LIGHT;
             }
-            let [c0, c1, c2] = set.corners[slot];
+            let [c0, c1, c2] = corners[slot];
             if c0 == c1 || c1 == c2 || c0 == c2 || zero_area(v) {
-                set.flags[slot] |= ZERO_AREA;
+                *flags |= ZERO_AREA;
             }
-        }
+        });
+        set.stats.alpha_opaque_triangles =
+            classes.iter().filter(|&&c| c == AlphaClass::Opaque).count() as u64;
+        set.stats.alpha_clear_triangles = classes.iter().filter(|&&c| c == AlphaClass::Clear).count() as u64;
         set.flagged = (0..n as u32).filter(|&slot| set.flags[slot as usize] != 0).collect();
         set.stats.alpha_triangles = set.flags.iter().filter(|&&f| f & ALPHA != 0).count() as u64;
         set.stats.near_light_triangles = set.flags.iter().filter(|&&f| f & NEAR_LIGHT != 0).count() as u64;
