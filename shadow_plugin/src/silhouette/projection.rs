@@ -13,13 +13,13 @@ use glam::{DVec2, DVec3, Vec3};
 /// [0, 1]^2 up to a rounding, and the reference point inside.
 pub(super) const MARGIN: f64 = 0.02;
 
-/// The band, in ulps of the largest coordinate involved, within which a sample's shadow ray
-/// may pass an edge and `traced`'s f32 ray-triangle test may go either way: such samples are
-/// traced. Measured (`band_tests.rs`: samples placed across random edges' lines, traced with
-/// the renderer's ray and watertight test): the test and the side's sign disagree up to 1.6
-/// of these units from the line, never from 3.2: 16 leaves a 5-10x margin. (64 before that test:
-/// on metal-rough-spheres, 4x more samples traced, and points with no reference point clear
-/// of every band.)
+/// The band's ulps (of the light's coordinates for the ray's aim, taken 4 times over; of the
+/// edge's in f64 for the watertight test's frame) within which a sample's shadow ray may pass
+/// an edge and `traced`'s test may go either way: such samples are traced. Measured
+/// (`band_tests.rs`: samples placed across random edges' lines, near the point and seen
+/// end-on too, traced with the renderer's ray and watertight test): every disagreement lies
+/// within 0.1 of the band. (64 before that test: on metal-rough-spheres, 4x more samples
+/// traced, and points with no reference point clear of every band.)
 pub(super) const BAND_ULPS: f64 = 16.0;
 
 /// A flagged triangle's projection over the light: a convex polygon in light coordinates
@@ -331,6 +331,8 @@ pub(super) fn push(active: &mut Vec<ActiveEdge>, frame: &Frame, e0: DVec3, e1: D
         let exact =
             1e-14 * n.length() * (frame.u.length() + frame.v.length() + (frame.centre - frame.o).length());
         let path_band = (rounding + exact * inv) as f32 * 1.001;
+        // A sample's band holds a path point's (so a sample is never surer than a point).
+        let band = band.max(path_band);
         active.push(ActiveEdge { side, band, path_band, p0, p1, weight });
     }
 }

@@ -59,8 +59,9 @@ impl EdgeSet {
             base.push(total as u32);
             total += scene.meshes[inst.mesh as usize].vertices as u64;
         }
-        let loose = scene.origins.iter().filter(|o| o.is_loose()).count() as u64;
-        assert!(total + 3 * loose < u32::MAX as u64, "more vertices than u32 ids");
+        // A loose corner's tag is total + its corner index (3 per triangle slot).
+        let corners = 3 * scene.triangles.len() as u64;
+        assert!(total + corners < u32::MAX as u64, "more vertices than u32 ids");
         let total = total as u32;
         // Each instance triangle's ids, then each id's position, in parallel: every triangle
         // naming an id writes the same bits there (one transform of one file position), so
