@@ -24,13 +24,8 @@ impl MeshTopology {
     /// Welds `positions` (bit-identical ones share an id, ids in order of first appearance
     /// of each position in the sorted order) and maps `corners` (indices into `positions`).
     pub fn weld(positions: &[Vec3], corners: &[[u32; 3]]) -> MeshTopology {
-        // Position bits and vertex index in one u128: one integer comparison per step.
-        let key = |v: Vec3, i: usize| {
-            let v = v + Vec3::ZERO; // -0.0 + 0.0 = 0.0
-            let p = ((v.x.to_bits() as u128) << 64) | ((v.y.to_bits() as u128) << 32) | v.z.to_bits() as u128;
-            (p << 32) | i as u128
-        };
-        let mut keys: Vec<u128> = positions.iter().enumerate().map(|(i, &v)| key(v, i)).collect();
+        let mut keys: Vec<u128> =
+            positions.iter().enumerate().map(|(i, &v)| position_key(v, i as u32)).collect();
         keys.sort_unstable();
         let mut id = vec![0u32; positions.len()];
         let mut next = 0u32;
@@ -43,6 +38,14 @@ impl MeshTopology {
         let vertices = if positions.is_empty() { 0 } else { next + 1 };
         MeshTopology { vertices, corners: corners.iter().map(|c| c.map(|i| id[i as usize])).collect() }
     }
+}
+
+/// A weld's sort key: the position's bits (-0.0 as 0.0) above a 32-bit tag, in one u128
+/// (one integer comparison per step); equal positions are equal in `key >> 32`.
+pub fn position_key(v: Vec3, tag: u32) -> u128 {
+    let v = v + Vec3::ZERO; // -0.0 + 0.0 = 0.0
+    let p = ((v.x.to_bits() as u128) << 64) | ((v.y.to_bits() as u128) << 32) | v.z.to_bits() as u128;
+    (p << 32) | tag as u128
 }
 
 /// One placement of a mesh: a node using it (its transform is applied to the triangles).

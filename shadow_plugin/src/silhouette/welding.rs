@@ -14,7 +14,7 @@ use super::edges::EdgeSet;
 use glam::Vec3;
 use rayon::prelude::*;
 use renderer::Scene;
-use renderer::geometry::instances::MeshTopology;
+use renderer::geometry::instances::{MeshTopology, position_key};
 use std::sync::atomic::{AtomicU32, Ordering};
 
 /// Where each instance's vertex ids start, and the ids its boundary vertices were welded
@@ -48,11 +48,6 @@ impl EdgeSet {
     /// are welded by bit-identical position (-0.0 and 0.0 are one), sorted with ties by id
     /// so the ids are the same on every run.
     pub(super) fn weld(&mut self, scene: &Scene) -> Welded {
-        let key = |v: Vec3, tag: u32| {
-            let v = v + Vec3::ZERO; // -0.0 + 0.0 = 0.0
-            let p = ((v.x.to_bits() as u128) << 64) | ((v.y.to_bits() as u128) << 32) | v.z.to_bits() as u128;
-            (p << 32) | tag as u128
-        };
         let mut base = Vec::with_capacity(scene.instances.len());
         let mut total = 0u64;
         for inst in &scene.instances {
@@ -103,7 +98,7 @@ impl EdgeSet {
                 // Tagged after every instance vertex: a run's first tag is an instance's
                 // vertex where it has one.
                 let p = [tri.v0, tri.v1, tri.v2].map(Vec3::from);
-                keys.extend((0..3).map(|k| key(p[k], total + (3 * slot + k) as u32)));
+                keys.extend((0..3).map(|k| position_key(p[k], total + (3 * slot + k) as u32)));
             }
         }
         // The meshes' boundary vertices, each instance's that a kept triangle uses.
@@ -112,7 +107,7 @@ impl EdgeSet {
             for &v in &boundaries[inst.mesh as usize] {
                 let id = base[i] + v;
                 if !self.vertices[id as usize].is_nan() {
-                    keys.push(key(self.vertices[id as usize], id));
+                    keys.push(position_key(self.vertices[id as usize], id));
                 }
             }
         }
