@@ -110,7 +110,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
 
     let outcome = pool.install(|| {
         progress.phase("loading the scene and building the BVH", 0);
-        let scene = Scene::load(&plan.file, &plan.scene_path)?;
+        let scene = Scene::load_within(&plan.file, &plan.scene_path, memory::available_bytes())?;
         let loaded = t_total.elapsed();
         let frame = render_frame(&plan, &scene, args.seed, args.profile, &progress)?;
         let png = &plan.png;
@@ -434,6 +434,8 @@ fn build_report(
         seed,
         lights: scene.lights.len(),
         triangles: scene.stats.triangles,
+        unique_triangles: scene.unique_triangles(),
+        instances: scene.instances.len() as u64,
         degenerate_triangles: scene.stats.degenerate_triangles,
         timings_s: Timings {
             // Everything before the BVH build counts as loading (the scene file, the pool,

@@ -62,7 +62,8 @@ fn main() -> ExitCode {
                 let samples =
                     if r.method == "none" { String::new() } else { format!(" ({} samples)", r.samples) };
                 println!(
-                    "{}: {} {}x{} spp {}{samples}, max depth {}, {} triangles, {} light(s), {} threads",
+                    "{}: {} {}x{} spp {}{samples}, max depth {}, {} triangles ({} unique, {} instances), {} light(s), \
+                     {} threads",
                     r.scene,
                     r.method,
                     r.width,
@@ -70,6 +71,8 @@ fn main() -> ExitCode {
                     r.spp,
                     r.max_depth,
                     r.triangles,
+                    r.unique_triangles,
+                    r.instances,
                     r.lights,
                     r.threads
                 );

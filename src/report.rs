@@ -82,7 +82,14 @@ pub struct RunReport {
     pub threads: usize,
     pub seed: u64,
     pub lights: usize,
+    /// Triangles rendered: every instance's, flattened.
     pub triangles: u64,
+    /// Triangles of the distinct meshes (each counted once however many nodes place it),
+    /// and the placements: glTF nodes with a mesh, and quads.
+    #[serde(default)]
+    pub unique_triangles: u64,
+    #[serde(default)]
+    pub instances: u64,
     /// Triangles dropped at load, for any reason (`warnings` says which).
     pub degenerate_triangles: u64,
     pub timings_s: Timings,

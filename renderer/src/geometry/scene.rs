@@ -126,6 +126,13 @@ pub fn bvh_params() -> BvhBuildParams {
 }
 
 impl Scene {
+    /// Triangles of the distinct meshes, each counted once however many instances place it
+    /// (and those of no mesh): what the scene would hold with every mesh stored once.
+    pub fn unique_triangles(&self) -> u64 {
+        let meshes: u64 = self.meshes.iter().map(|m| m.corners.len() as u64).sum();
+        meshes + self.origins.iter().filter(|o| o.is_loose()).count() as u64
+    }
+
     /// The unit geometric normal of a triangle (its winding's side): from the f32 cross
     /// product, or in f64 where that underflows or overflows (tiny and huge triangles).
     #[inline]

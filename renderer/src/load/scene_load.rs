@@ -19,9 +19,20 @@ use std::time::{Duration, Instant};
 impl Scene {
     /// Loads a scene file: models, quads, camera, lights; builds the BVH.
     pub fn load(file: &SceneFile, scene_path: &Path) -> Result<Scene, SceneError> {
+        Self::load_within(file, scene_path, None)
+    }
+
+    /// [`Scene::load`], refusing a model whose triangles would take the scene past
+    /// `memory_limit` bytes at the load's peak (an error naming the file and how much it
+    /// needs, before its buffers are read; see `gltf_load::BYTES_PER_TRIANGLE`).
+    pub fn load_within(
+        file: &SceneFile,
+        scene_path: &Path,
+        memory_limit: Option<u64>,
+    ) -> Result<Scene, SceneError> {
         let t0 = Instant::now();
         let load_span = tracing::info_span!("load").entered();
-        let mut geometry = Geometry::default();
+        let mut geometry = Geometry { memory_limit, ..Geometry::default() };
         let gltf_camera = load_models(file, scene_path, &mut geometry)?;
         for q in &file.quad {
             geometry.add_quad(DVec3::from(q.center), DVec3::from(q.u), DVec3::from(q.v), q.color);
