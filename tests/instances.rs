@@ -90,3 +90,111 @@ fn a_scene_beyond_the_memory_is_refused_before_its_buffers_are_read() {
     let err = load(&dir, None).err().expect("the buffer is gone");
     assert_eq!(err.key, "buffers[0].uri", "{err}");
 }
+
+/// One triangle drawn by a node (translated, rotated 90 degrees about y) through
+/// EXT_mesh_gpu_instancing with three copies: each copy's TRS applied first, then the node's
+/// (world = node x T x R x S), the third mirrored by a negative scale. Expected positions
+/// from the numbers written, in f64; render space is world less the camera's position;
+/// tolerance 1e-5 m (f32 rounding of coordinates under 60 m: spacing 4e-6).
+#[test]
+fn gpu_instancing_draws_the_mesh_once_per_copy_under_the_node() {
+    use glam::{DMat4, DQuat, DVec3};
+    let dir = TempDir::new("gpu-instancing");
+    let mut b = GltfBuilder::new();
+    let tri = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let pos = b.positions(&tri);
+    let mesh = b.mesh(vec![primitive(&[("POSITION", pos)], None, TRIANGLES, None)]);
+    let t = [[0.0f32, 0.0, 0.0], [5.0, 0.0, 0.0], [0.0, 0.0, 7.0]];
+    let half = std::f32::consts::FRAC_1_SQRT_2;
+    let r = [[0.0f32, 0.0, 0.0, 1.0], [0.0, 0.0, half, half], [half, 0.0, 0.0, half]];
+    let s = [[1.0f32, 1.0, 1.0], [2.0, 2.0, 2.0], [1.0, -1.0, 1.0]];
+    let (ta, ra, sa) = (b.vec3(&t), b.vec4(&r), b.vec3(&s));
+    let node_t = [1.0, 2.0, 3.0];
+    let node_r = [0.0, half as f64, 0.0, half as f64];
+    let node = b.node(json!({
+        "mesh": mesh, "translation": node_t, "rotation": node_r,
+        "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": ta, "ROTATION": ra, "SCALE": sa}}}
+    }));
+    let sc = b.scene(&[node]);
+    b.set_default_scene(sc);
+    b.require_extension("EXT_mesh_gpu_instancing");
+    b.write(&dir.path, "field");
+    let scene = load(&dir, None).expect("a file requiring the extension loads");
+    assert_eq!((scene.stats.triangles, scene.instances.len(), scene.meshes.len()), (3, 3, 1));
+    assert_eq!(scene.instances.iter().map(|i| i.mirrored).collect::<Vec<_>>(), [false, false, true]);
+
+    let node_m = DMat4::from_rotation_translation(DQuat::from_array(node_r).normalize(), DVec3::from(node_t));
+    let camera = DVec3::new(0.0, 30.0, 60.0);
+    let f = |v: [f32; 3]| DVec3::from(v.map(f64::from));
+    let mut loaded: Vec<[DVec3; 3]> =
+        scene.triangles.iter().map(|t| [t.v0, t.v1, t.v2].map(|v| glam::Vec3::from(v).as_dvec3())).collect();
+    for k in 0..3 {
+        let q = DQuat::from_array(r[k].map(f64::from)).normalize();
+        let m = node_m * DMat4::from_scale_rotation_translation(f(s[k]), q, f(t[k]));
+        let want = tri.map(|v| m.transform_point3(f(v)) - camera);
+        let near = |a: &[DVec3; 3]| want.iter().all(|w| a.iter().any(|v| (*v - *w).length() < 1e-5));
+        let i = loaded
+            .iter()
+            .position(near)
+            .unwrap_or_else(|| panic!("copy {k} ({want:?}) not among {loaded:?}"));
+        loaded.remove(i);
+    }
+}
+
+/// The extension's errors: attribute counts that differ, a zero scale, an accessor that does
+/// not exist: one line each naming the attribute; and the refusal counts every copy.
+#[test]
+fn gpu_instancing_errors_name_the_attribute_and_the_refusal_counts_copies() {
+    type Case = (&'static str, Vec<[f32; 3]>, Vec<[f32; 3]>, &'static str);
+    let cases: [Case; 2] = [
+        ("counts", vec![[0.0; 3], [1.0, 0.0, 0.0]], vec![[1.0; 3]], "elements where another attribute has 2"),
+        ("zero-scale", vec![[0.0; 3]], vec![[0.0, 1.0, 1.0]], "singular"),
+    ];
+    for (name, t, s, says) in cases {
+        let dir = TempDir::new(&format!("gpu-instancing-{name}"));
+        let mut b = GltfBuilder::new();
+        let pos = b.positions(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+        let mesh = b.mesh(vec![primitive(&[("POSITION", pos)], None, TRIANGLES, None)]);
+        let (ta, sa) = (b.vec3(&t), b.vec3(&s));
+        let attributes = json!({"TRANSLATION": ta, "SCALE": sa});
+        let node = b.node(
+            json!({"mesh": mesh, "extensions": {"EXT_mesh_gpu_instancing": {"attributes": attributes}}}),
+        );
+        let sc = b.scene(&[node]);
+        b.set_default_scene(sc);
+        b.write(&dir.path, "field");
+        let err = load(&dir, None).err().unwrap_or_else(|| panic!("{name}: loads"));
+        let message = err.to_string();
+        assert!(
+            err.key.starts_with("nodes[0].extensions.EXT_mesh_gpu_instancing.attributes."),
+            "{name}: {message}"
+        );
+        assert!(message.contains(says) && !message.contains('\n'), "{name}: {message}");
+    }
+
+    // 1,000 copies of a 1,000-triangle mesh by one node: 10^6 triangles, 450 MB, refused
+    // under 100 MB before the buffers are read.
+    let dir = TempDir::new("gpu-instancing-refused");
+    let mut b = GltfBuilder::new();
+    let mut p = Vec::new();
+    for i in 0..=500 {
+        p.extend([[i as f32, 0.0, 0.0], [i as f32, 0.0, 1.0]]);
+    }
+    let pos = b.positions(&p);
+    let mesh = b.mesh(vec![primitive(&[("POSITION", pos)], None, 5, None)]); // a strip: 1,000 triangles
+    let ta = b.vec3(&(0..1000).map(|k| [0.0, 0.0, 2.0 * k as f32]).collect::<Vec<_>>());
+    let node = b.node(
+        json!({"mesh": mesh, "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": ta}}}}),
+    );
+    let sc = b.scene(&[node]);
+    b.set_default_scene(sc);
+    b.write(&dir.path, "field");
+    let err = load(&dir, Some(100_000_000)).err().expect("10^6 triangles do not fit in 100 MB");
+    assert_eq!(err.key, "nodes", "{err}");
+    assert!(
+        err.to_string().contains("1000 instance(s)") && err.to_string().contains("1000000 triangles"),
+        "{err}"
+    );
+    let scene = load(&dir, None).expect("loads without a limit");
+    assert_eq!((scene.stats.triangles, scene.instances.len()), (1_000_000, 1000));
+}

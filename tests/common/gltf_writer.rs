@@ -60,6 +60,7 @@ pub struct GltfBuilder {
     scenes: Vec<Value>,
     default_scene: Option<usize>,
     extensions_used: Vec<String>,
+    extensions_required: Vec<String>,
 }
 
 fn push(list: &mut Vec<Value>, v: Value) -> usize {
@@ -87,6 +88,7 @@ impl GltfBuilder {
         let components = match kind {
             "VEC2" => 2,
             "VEC3" => 3,
+            "VEC4" => 4,
             _ => panic!("unsupported accessor type {kind}"),
         };
         let bytes: Vec<u8> = data.iter().flat_map(|x| x.to_le_bytes()).collect();
@@ -136,6 +138,12 @@ impl GltfBuilder {
     pub fn vec3(&mut self, v: &[[f32; 3]]) -> usize {
         let flat: Vec<f32> = v.iter().flatten().copied().collect();
         self.float_accessor(&flat, "VEC3", json!({}))
+    }
+
+    /// A raw VEC4 f32 accessor (EXT_mesh_gpu_instancing's ROTATION).
+    pub fn vec4(&mut self, v: &[[f32; 4]]) -> usize {
+        let flat: Vec<f32> = v.iter().flatten().copied().collect();
+        self.float_accessor(&flat, "VEC4", json!({}))
     }
 
     /// A TEXCOORD_n accessor (VEC2 f32).
@@ -206,6 +214,12 @@ impl GltfBuilder {
         self.extensions_used.push(name.to_string());
     }
 
+    /// Lists `name` in extensionsUsed and extensionsRequired.
+    pub fn require_extension(&mut self, name: &str) {
+        self.use_extension(name);
+        self.extensions_required.push(name.to_string());
+    }
+
     /// The JSON document, its buffer pointing at `bin_uri`.
     pub fn json(&self, bin_uri: &str) -> Value {
         let mut doc = json!({
@@ -234,6 +248,9 @@ impl GltfBuilder {
         }
         if !self.extensions_used.is_empty() {
             obj.insert("extensionsUsed".into(), json!(self.extensions_used));
+        }
+        if !self.extensions_required.is_empty() {
+            obj.insert("extensionsRequired".into(), json!(self.extensions_required));
         }
         doc
     }

@@ -12,6 +12,7 @@ use gltf::mesh::Mode;
 use std::collections::HashMap;
 use std::path::Path;
 
+mod gpu_instancing;
 mod materials;
 mod primitives;
 use materials::*;
@@ -78,6 +79,7 @@ pub const BYTES_PER_TRIANGLE: u64 = 450;
 #[derive(Clone, Copy)]
 struct FileContext<'a> {
     path: &'a Path,
+    doc: &'a gltf::Document,
     buffers: &'a [gltf::buffer::Data],
     /// The scene's index of the file's material 0.
     material_base: u32,
@@ -113,7 +115,7 @@ pub fn load_gltf(
         .default_scene()
         .or_else(|| doc.scenes().next())
         .ok_or_else(|| fail("scenes", "the file has no scene".into()))?;
-    let file = FileContext { path, buffers: &buffers, material_base, default_material };
+    let file = FileContext { path, doc, buffers: &buffers, material_base, default_material };
     load_nodes(&file, &scene, model_from_file, geometry)
 }
 
@@ -127,8 +129,9 @@ fn primitive_triangles(prim: &gltf::Primitive) -> u64 {
     }
 }
 
-/// What the default scene of `doc` places: (triangles once every node's mesh is flattened,
-/// nodes with a mesh, triangles of the distinct meshes), from the node tree and the
+/// What the default scene of `doc` places: (triangles once every instance is flattened,
+/// instances: nodes with a mesh and their `EXT_mesh_gpu_instancing` copies, triangles of the
+/// distinct meshes), from the node tree and the
 /// accessors' declared counts, before any buffer is read. A node reached twice is counted
 /// once (the load refuses it).
 fn planned_triangles(doc: &gltf::Document) -> (u64, u64, u64) {
@@ -143,8 +146,9 @@ fn planned_triangles(doc: &gltf::Document) -> (u64, u64, u64) {
         }
         if let Some(mesh) = node.mesh() {
             let n: u64 = mesh.primitives().map(|p| primitive_triangles(&p)).sum();
-            flattened = flattened.saturating_add(n);
-            placed += 1;
+            let copies = gpu_instancing::planned_count(doc, &node);
+            flattened = flattened.saturating_add(n.saturating_mul(copies));
+            placed += copies;
             if meshes.insert(mesh.index()) {
                 unique = unique.saturating_add(n);
             }
@@ -171,9 +175,10 @@ fn refuse_beyond_memory(path: &Path, doc: &gltf::Document, geometry: &Geometry) 
         path,
         "nodes",
         format!(
-            "the scene needs about {:.1} GiB to load and {:.1} GiB is available: {placed} node(s) place \
-             meshes of {unique} distinct triangles, {total} triangles once every node's mesh is \
-             flattened (penumbra stores each placement's triangles), about {BYTES_PER_TRIANGLE} bytes each",
+            "the scene needs about {:.1} GiB to load and {:.1} GiB is available: {placed} instance(s) \
+             (nodes and EXT_mesh_gpu_instancing copies) of meshes of {unique} distinct triangles, \
+             {total} triangles once every instance is flattened (penumbra stores each instance's \
+             triangles), about {BYTES_PER_TRIANGLE} bytes each",
             gib(need),
             gib(limit)
         ),
@@ -371,17 +376,23 @@ fn load_nodes(
                 .collect();
             let known = meshes.get(&key).copied();
             let mut topology = known.is_none().then(TopologyBuilder::default);
-            let instance = geometry.instances.len() as u32;
             let mesh_id = known.unwrap_or(geometry.meshes.len() as u32);
-            geometry.instances.push(Instance { mesh: mesh_id, mirrored: world.determinant() < 0.0 });
-            let mut origin = TriangleOrigin { instance, local: 0 };
+            let mut read = Vec::new();
             for prim in mesh.primitives() {
-                origin.local =
-                    load_primitive(file, &mesh, &prim, world, origin, topology.as_mut(), geometry)?;
+                read.extend(read_primitive(file, &mesh, &prim, topology.as_mut())?);
             }
             if let Some(t) = topology {
                 meshes.insert(key, mesh_id);
                 geometry.meshes.push(t.finish());
+            }
+            for placed in gpu_instancing::placements(file, &node, world)? {
+                let instance = geometry.instances.len() as u32;
+                geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
+                let mut origin = TriangleOrigin { instance, local: 0 };
+                for prim in &read {
+                    place_primitive(prim, placed, origin, geometry);
+                    origin.local += prim.triangles();
+                }
             }
         }
         let children: Vec<_> = node.children().collect();
@@ -406,6 +417,8 @@ fn decodable_uri(uri: &str) -> bool {
 /// - gltf-json's validation indexes `accessors` by each primitive's POSITION before checking
 ///   that index (found by fuzzing), so a document is checked for that first.
 /// - gltf's import panics on a buffer URI whose %-escapes are not UTF-8 ([`decodable_uri`]).
+///
+/// A file that requires EXT_mesh_gpu_instancing is accepted (gltf would refuse it).
 fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
     use gltf::json::{mesh::Semantic, validation::Checked};
     let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
@@ -437,7 +450,11 @@ fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
             }
         }
     }
-    let document = gltf::Document::from_json(gltf.document.into_json()).map_err(|e| e.to_string())?;
+    // gltf validates `extensionsRequired` against the extensions it reads itself; this loader
+    // reads EXT_mesh_gpu_instancing (`gpu_instancing.rs`), so a file may require it.
+    let mut json = gltf.document.into_json();
+    json.extensions_required.retain(|e| e != "EXT_mesh_gpu_instancing");
+    let document = gltf::Document::from_json(json).map_err(|e| e.to_string())?;
     Ok(gltf::Gltf { document, blob: gltf.blob })
 }
 

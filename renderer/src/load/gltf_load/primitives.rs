@@ -18,24 +18,38 @@ impl TopologyBuilder {
     }
 }
 
-/// Appends the triangles of primitive `prim` of `mesh` (of the file `file` describes), under
-/// the world transform `world`, to `geometry`, the first as triangle `origin.local` of its
-/// mesh (and to `topology` at the mesh's first use). Returns the next triangle's index.
-pub(super) fn load_primitive(
+/// A primitive read once per node, placed by each of the node's transforms (one, or one
+/// per instance of `EXT_mesh_gpu_instancing`).
+pub(super) struct ReadPrimitive<'a> {
+    vertices: Vertices,
+    corners: Vec<[u32; 3]>,
+    material: gltf::Material<'a>,
+    mat_id: u32,
+}
+
+impl ReadPrimitive<'_> {
+    /// Its triangles (degenerate ones included): the next primitive's first index in the
+    /// mesh is this one's plus this.
+    pub(super) fn triangles(&self) -> u32 {
+        self.corners.len() as u32
+    }
+}
+
+/// Reads primitive `prim` of `mesh` (of the file `file` describes), and adds its triangles to
+/// `topology` at the mesh's first use. `None` for points and lines (no area: nothing to
+/// render or shadow).
+pub(super) fn read_primitive<'a>(
     file: &FileContext,
     mesh: &gltf::Mesh,
-    prim: &gltf::Primitive,
-    world: DMat4,
-    origin: TriangleOrigin,
+    prim: &gltf::Primitive<'a>,
     topology: Option<&mut TopologyBuilder>,
-    geometry: &mut Geometry,
-) -> Result<u32, SceneError> {
-    let FileContext { path, buffers, material_base, default_material } = *file;
+) -> Result<Option<ReadPrimitive<'a>>, SceneError> {
+    let FileContext { path, buffers, material_base, default_material, .. } = *file;
     let key = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
     let fail = |k: &str, msg: String| SceneError::new(path, format!("{key}{k}"), msg);
     let mode = prim.mode();
     if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
-        return Ok(origin.local); // points and lines have no area: nothing to render or shadow
+        return Ok(None);
     }
     let material = prim.material();
     let mat_id = match material.index() {
@@ -50,14 +64,23 @@ pub(super) fn load_primitive(
 
     let vertices = read_vertices(prim, uv_set, buffers, &fail)?;
     let corners = triangle_corners(mode, &vertices.indices);
-    let next = origin.local + corners.len() as u32;
     if let Some(t) = topology {
         let base = t.positions.len() as u32;
         t.positions.extend(vertices.positions.iter().map(|&p| Vec3::from(p)));
         t.corners.extend(corners.iter().map(|c| c.map(|i| base + i)));
     }
-    push_triangles(world, &vertices, corners, &material, (mat_id, origin), geometry);
-    Ok(next)
+    Ok(Some(ReadPrimitive { vertices, corners, material, mat_id }))
+}
+
+/// Appends `prim`'s triangles under the world transform `world` to `geometry`, the first as
+/// triangle `origin.local` of its mesh.
+pub(super) fn place_primitive(
+    prim: &ReadPrimitive,
+    world: DMat4,
+    origin: TriangleOrigin,
+    geometry: &mut Geometry,
+) {
+    push_triangles(world, &prim.vertices, &prim.corners, &prim.material, (prim.mat_id, origin), geometry);
 }
 
 /// POSITION, NORMAL, TEXCOORD_`uv_set` and the indices of `prim`, each checked (when
@@ -192,7 +215,7 @@ pub(super) fn triangle_corners(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
 pub(super) fn push_triangles(
     world: DMat4,
     vertices: &Vertices,
-    corners: Vec<[u32; 3]>,
+    corners: &[[u32; 3]],
     material: &gltf::Material,
     (mat_id, origin): (u32, TriangleOrigin),
     geometry: &mut Geometry,
@@ -204,7 +227,7 @@ pub(super) fn push_triangles(
     let is_emitter =
         emissive.max_element() > 0.0 && material.emissive_texture().is_none() && emissive.is_finite();
     let mut emitter_tris = Vec::new();
-    for (local, c) in (origin.local..).zip(corners) {
+    for (local, &c) in (origin.local..).zip(corners) {
         let origin = TriangleOrigin { local, ..origin };
         let mut c = c;
         if mirrored {
