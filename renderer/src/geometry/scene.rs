@@ -127,10 +127,18 @@ pub fn bvh_params() -> BvhBuildParams {
 
 impl Scene {
     /// Triangles of the distinct meshes, each counted once however many instances place it
-    /// (and those of no mesh): what the scene would hold with every mesh stored once.
+    /// (those its first instance kept), and those of no mesh: what the scene would hold with
+    /// every mesh stored once.
     pub fn unique_triangles(&self) -> u64 {
-        let meshes: u64 = self.meshes.iter().map(|m| m.corners.len() as u64).sum();
-        meshes + self.origins.iter().filter(|o| o.is_loose()).count() as u64
+        let mut first = vec![u32::MAX; self.meshes.len()];
+        for (i, inst) in self.instances.iter().enumerate() {
+            let f = &mut first[inst.mesh as usize];
+            *f = (*f).min(i as u32);
+        }
+        let counted = |o: &TriangleOrigin| {
+            o.is_loose() || first[self.instances[o.instance as usize].mesh as usize] == o.instance
+        };
+        self.origins.iter().filter(|o| counted(o)).count() as u64
     }
 
     /// The unit geometric normal of a triangle (its winding's side): from the f32 cross

@@ -7,12 +7,13 @@ use crate::geometry::instances::{Instance, MeshTopology, TriangleOrigin};
 use crate::geometry::light::RectLight;
 use crate::geometry::material::Material;
 use crate::geometry::precision::{SHAPE_PRECISION, f32_spacing, is_degenerate};
-use crate::geometry::scene::{LoadStats, Scene, TriangleShading, bvh_params, camera_frame_ok, cover_depth};
+use crate::geometry::scene::{LoadStats, Scene, TriangleShading, camera_frame_ok, cover_depth};
 use crate::load::config::{LightDesc, SceneFile, validate_light};
 use crate::load::gltf_load::{EmitterCandidate, Geometry, GltfCamera, SourceTriangle, load_gltf};
 use crate::util::error::SceneError;
 use glam::{DMat4, DQuat, DVec3, Vec2, Vec3};
 use obvhs::triangle::Triangle;
+use rayon::prelude::*;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -98,17 +99,18 @@ impl Scene {
         }
         let t_bvh = Instant::now();
         let bvh_span = tracing::info_span!("bvh", triangles = tris.len()).entered();
-        let bvh = if tris.is_empty() {
-            None
-        } else {
-            let mut bvh =
-                obvhs::bvh2::builder::build_bvh2_from_tris(&tris, bvh_params(), &mut Duration::default());
-            cover_depth(&mut bvh);
-            // Reorder once so that leaves index our arrays directly.
-            tris = bvh.primitive_indices.iter().map(|&i| tris[i as usize]).collect();
-            shading = bvh.primitive_indices.iter().map(|&i| shading[i as usize]).collect();
-            origins = bvh.primitive_indices.iter().map(|&i| origins[i as usize]).collect();
-            Some(bvh)
+        let bvh = match crate::geometry::scene_bvh::build(&tris, &origins, &instances, &meshes) {
+            None => None,
+            Some(mut bvh) => {
+                cover_depth(&mut bvh);
+                // Reorder once so that leaves index our arrays directly; in parallel, order
+                // kept (8.2 M triangles' arrays took ~1 s on one thread).
+                let order = &bvh.primitive_indices;
+                tris = order.par_iter().map(|&i| tris[i as usize]).collect();
+                shading = order.par_iter().map(|&i| shading[i as usize]).collect();
+                origins = order.par_iter().map(|&i| origins[i as usize]).collect();
+                Some(bvh)
+            }
         };
         drop(bvh_span);
         let bvh_time = t_bvh.elapsed();
