@@ -18,7 +18,9 @@ use crate::config::ShadowsConfig;
 use crate::progress::PhaseProgress;
 use crate::report::{RunReport, Timings};
 use renderer::util::output::StagedFiles;
-use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod};
+use renderer::{
+    Frame, KeepInstances, LoadOptions, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod,
+};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -110,7 +112,13 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
 
     let outcome = pool.install(|| {
         progress.phase("loading the scene and building the BVH", 0);
-        let scene = Scene::load_within(&plan.file, &plan.scene_path, memory::available_bytes())?;
+        // Only methods that trace through the scene's queries render kept instances.
+        let keep = match methods::registered(plan.shadows.name()) {
+            Some(m) if m.traces_kept_instances => KeepInstances::WhenNeeded,
+            _ => KeepInstances::Never,
+        };
+        let options = LoadOptions { memory_limit: memory::available_bytes(), keep };
+        let scene = Scene::load_with(&plan.file, &plan.scene_path, options)?;
         let loaded = t_total.elapsed();
         let frame = render_frame(&plan, &scene, args.seed, args.profile, &progress)?;
         let png = &plan.png;
@@ -436,6 +444,7 @@ fn build_report(
         triangles: scene.stats.triangles,
         unique_triangles: scene.unique_triangles(),
         instances: scene.instances.len() as u64,
+        kept_instances: scene.kept_instances(),
         degenerate_triangles: scene.stats.degenerate_triangles,
         timings_s: Timings {
             // Everything before the BVH build counts as loading (the scene file, the pool,

@@ -61,9 +61,14 @@ fn main() -> ExitCode {
                 // `none` casts no shadow rays: a sample count would say it does.
                 let samples =
                     if r.method == "none" { String::new() } else { format!(" ({} samples)", r.samples) };
+                let kept = if r.kept_instances > 0 {
+                    format!(", {} kept unflattened", r.kept_instances)
+                } else {
+                    String::new()
+                };
                 println!(
-                    "{}: {} {}x{} spp {}{samples}, max depth {}, {} triangles ({} unique, {} instances), {} light(s), \
-                     {} threads",
+                    "{}: {} {}x{} spp {}{samples}, max depth {}, {} triangles ({} unique, {} instances{kept}), \
+                     {} light(s), {} threads",
                     r.scene,
                     r.method,
                     r.width,

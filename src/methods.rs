@@ -38,6 +38,8 @@ pub struct Registered {
     /// Its plot colour (sRGB) and whether its points are joined into a line.
     pub colour: [u8; 3],
     pub plot_line: bool,
+    /// Whether it renders scenes whose instances stay unflattened (`traced`, `none`).
+    pub traces_kept_instances: bool,
 }
 
 impl Registered {
@@ -55,6 +57,7 @@ impl Registered {
             bench_rank: M::BENCH_RANK,
             colour: M::COLOUR,
             plot_line: M::PLOT_LINE,
+            traces_kept_instances: M::TRACES_KEPT_INSTANCES,
         }
     }
 }
@@ -77,6 +80,11 @@ pub const RETIRED: &[(&str, &str)] = &[(
      scene; reading = \"published\" takes depth_march's keys); see \
      docs/notes/2026-11-26-retired-depth-march.md",
 )];
+
+/// The registered method called `name`.
+pub fn registered(name: &str) -> Option<&'static Registered> {
+    METHODS.iter().find(|m| m.name == name)
+}
 
 /// What to use instead of `name`, if it is a retired method.
 pub fn retired(name: &str) -> Option<&'static str> {

@@ -90,6 +90,9 @@ pub struct RunReport {
     pub unique_triangles: u64,
     #[serde(default)]
     pub instances: u64,
+    /// Instances kept unflattened (a scene too big to flatten: each mesh stored once).
+    #[serde(default)]
+    pub kept_instances: u64,
     /// Triangles dropped at load, for any reason (`warnings` says which).
     pub degenerate_triangles: u64,
     pub timings_s: Timings,

@@ -5,7 +5,7 @@
 mod common;
 
 use common::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive};
-use renderer::{Scene, SceneError, SceneFile};
+use renderer::{KeepInstances, LoadOptions, Scene, SceneError, SceneFile};
 use serde_json::json;
 
 const CAMERA_AND_LIGHT: &str = r#"
@@ -49,7 +49,11 @@ fn load(dir: &TempDir, limit: Option<u64>) -> Result<Scene, SceneError> {
     let toml = format!("[[model]]\npath = \"field.gltf\"\n{CAMERA_AND_LIGHT}");
     let path = dir.join("scene.toml");
     std::fs::write(&path, &toml).expect("write the scene file");
-    Scene::load_within(&SceneFile::parse(&toml, &path)?, &path, limit)
+    Scene::load_with(
+        &SceneFile::parse(&toml, &path)?,
+        &path,
+        LoadOptions { memory_limit: limit, keep: KeepInstances::Never },
+    )
 }
 
 /// 200 nodes placing one 1,000-triangle mesh: 200,000 triangles flattened, 1,000 unique, 200
@@ -197,4 +201,151 @@ fn gpu_instancing_errors_name_the_attribute_and_the_refusal_counts_copies() {
     );
     let scene = load(&dir, None).expect("loads without a limit");
     assert_eq!((scene.stats.triangles, scene.instances.len()), (1_000_000, 1000));
+}
+
+/// Loads `toml` (written as `<dir>/scene.toml`) with instances flattened and kept.
+fn load_both(dir: &std::path::Path, toml: &str) -> (Scene, Scene) {
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, toml).expect("write the scene file");
+    let file = SceneFile::parse(toml, &path).expect("a valid scene file");
+    let load =
+        |keep| Scene::load_with(&file, &path, LoadOptions { memory_limit: None, keep }).expect("loads");
+    (load(KeepInstances::Never), load(KeepInstances::Always))
+}
+
+/// Casts `rays` random rays from around the camera's view and shadow rays between hits, in
+/// both scenes: every closest hit (its t, point, error bound, normals, uv, material, side)
+/// and every occlusion answer is the same bit for bit. Returns the hits met.
+fn same_answers(flat: &Scene, kept: &Scene, rays: usize, reach: f32) -> usize {
+    use glam::Vec3A;
+    use obvhs::ray::Ray;
+    assert!(kept.instanced.is_some() && flat.instanced.is_none());
+    assert_eq!(flat.stats.triangles, kept.stats.triangles, "the kept scene counts the flattened triangles");
+    assert_eq!(flat.warnings, kept.warnings, "the same drops, counted alike");
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let mut uniform = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let (lo, hi) = (flat.bounds_min, flat.bounds_max);
+    let mut hits = 0;
+    let mut previous: Option<glam::Vec3> = None;
+    let mut clear = 0;
+    for _ in 0..rays {
+        let o = glam::Vec3::new(uniform(), uniform(), uniform()) * reach - reach / 2.0;
+        let target = lo + (hi - lo) * glam::Vec3::new(uniform(), uniform(), uniform());
+        let ray = Ray::new_inf(Vec3A::from(o), Vec3A::from((target - o).normalize()));
+        let (a, b) = (flat.intersect(ray), kept.intersect(ray));
+        match (&a, &b) {
+            (Some(a), Some(b)) => {
+                let key = |h: &renderer::SurfaceHit| (h.t, h.point, h.uv, h.material, h.front_face);
+                assert_eq!(key(a), key(b), "ray from {o} to {target}");
+                hits += 1;
+                // A shadow segment between this hit and the last, each end lifted off its
+                // surface as the renderer's origins are (not along a face's plane).
+                let lifted = a.point.p + 1e-3 * reach * a.point.n_geom;
+                if let Some(p) = previous {
+                    let shadow = Ray::new(Vec3A::from(lifted), Vec3A::from(p - lifted), 0.0, 1.0);
+                    assert_eq!(flat.occluded(shadow), kept.occluded(shadow), "shadow ray {lifted} -> {p}");
+                }
+                previous = Some(lifted);
+                clear += shafts_sound(flat, kept, &a.point, &mut uniform) as usize;
+            }
+            (None, None) => {}
+            _ => panic!("ray from {o} to {target}: {a:?} against {b:?}"),
+        }
+        assert_eq!(flat.occluded(ray), kept.occluded(ray), "ray from {o} to {target}");
+    }
+    assert!(clear > hits / 20, "{clear} of {hits} shafts proven clear: the check must meet some");
+    hits
+}
+
+/// A shaft from `point` (facing the whole light) the kept scene proves clear holds no blocked
+/// ray of the flattened scene (16 rays to random light points, by the renderer's own rule
+/// for shadow rays). Returns whether it was proven clear.
+fn shafts_sound(
+    flat: &Scene,
+    kept: &Scene,
+    point: &renderer::ShadingPoint,
+    uniform: &mut impl FnMut() -> f32,
+) -> bool {
+    let light = &flat.lights[0];
+    // Points the whole light is above (a shaft holds the rays of a lit side only).
+    if light.corners().iter().any(|&c| (c - point.p).dot(point.n_geom) <= 0.0) {
+        return false;
+    }
+    let Some(shaft) = renderer::Shaft::new(light, point) else { return false };
+    if !kept.shaft_clear(&shaft) {
+        return false;
+    }
+    for _ in 0..16 {
+        let target = light.center + (uniform() - 0.5) * light.u + (uniform() - 0.5) * light.v;
+        let zero = glam::Vec3::ZERO;
+        assert!(
+            !flat.segment_occluded(point, target, zero, light.normal),
+            "a shaft the kept scene proved clear holds a blocked ray from {} to {target}",
+            point.p
+        );
+    }
+    true
+}
+
+/// A mesh (a closed box) placed by five nodes: plain, turned, scaled unevenly, mirrored, and
+/// one sharing a face with the first (a seam between instances); a quad under them. Kept or
+/// flattened, every hit and shadow answer is the same bit for bit.
+#[test]
+fn kept_instances_answer_every_ray_as_the_flattened_scene() {
+    let dir = TempDir::new("instances-kept");
+    let mut b = GltfBuilder::new();
+    let c = [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [1.0, 1.0, 1.0],
+        [0.0, 1.0, 1.0],
+    ];
+    let faces: [[u32; 4]; 6] =
+        [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [3, 7, 6, 2], [0, 4, 7, 3], [1, 2, 6, 5]];
+    let idx: Vec<u32> = faces.iter().flat_map(|f| [f[0], f[1], f[2], f[0], f[2], f[3]]).collect();
+    let pos = b.positions(&c);
+    let normals = b.normals(&c.map(|p| [p[0] - 0.5, p[1] - 0.5, p[2] - 0.5]));
+    let ind = b.indices_u32(&idx);
+    let mesh = b.mesh(vec![primitive(&[("POSITION", pos), ("NORMAL", normals)], Some(ind), TRIANGLES, None)]);
+    let nodes = [
+        json!({"mesh": mesh, "translation": [0.0, 0.0, 0.0]}),
+        json!({"mesh": mesh, "translation": [1.0, 0.0, 0.0]}),
+        json!({"mesh": mesh, "translation": [-3.0, 0.3, 1.0], "rotation": [0.2, 0.3, 0.1, 0.927]}),
+        json!({"mesh": mesh, "translation": [2.5, 0.0, -2.0], "scale": [0.5, 2.0, 1.5]}),
+        json!({"mesh": mesh, "translation": [0.0, 0.0, 3.0], "scale": [-1.0, 1.0, 1.0]}),
+    ]
+    .map(|n| b.node(n));
+    let sc = b.scene(&nodes);
+    b.set_default_scene(sc);
+    b.write(&dir.path, "field");
+    let quad = "[[quad]]\ncenter = [0.0, -0.01, 0.0]\nu = [12.0, 0.0, 0.0]\nv = [0.0, 0.0, -12.0]\n";
+    let toml = format!("[[model]]\npath = \"field.gltf\"\n{quad}{CAMERA_AND_LIGHT}");
+    let (flat, kept) = load_both(&dir.path, &toml);
+    assert_eq!(kept.instanced.as_ref().map(|i| i.placed.len()), Some(5));
+    let hits = same_answers(&flat, &kept, 20_000, 16.0);
+    assert!(hits > 5_000, "{hits} hits: the rays must meet the scene");
+}
+
+/// metal-rough-spheres (one sphere placed by 98 nodes, two pole triangles dropped in each):
+/// the same answers kept or flattened.
+#[test]
+fn metal_rough_spheres_kept_answers_as_flattened() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let path = root.join("scenes/gltf/metal-rough-spheres.toml");
+    let text = std::fs::read_to_string(&path).expect("the scene file");
+    let file = SceneFile::parse(&text, &path).expect("a valid scene file");
+    let load =
+        |keep| Scene::load_with(&file, &path, LoadOptions { memory_limit: None, keep }).expect("loads");
+    let (flat, kept) = (load(KeepInstances::Never), load(KeepInstances::Always));
+    let hits = same_answers(&flat, &kept, 20_000, 0.05);
+    assert!(hits > 2_000, "{hits} hits");
 }

@@ -23,5 +23,6 @@ pub use interface::entry::{MethodEntry, SweepSetting};
 pub use interface::method::{KeyError, MethodParams, ShadowMethod, parse_method};
 pub use interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
 pub use load::config::SceneFile;
+pub use load::scene_load::{KeepInstances, LoadOptions};
 pub use methods::traced::{MAX_TRACED_SAMPLES, Traced, TracedParams, Unshadowed};
 pub use util::error::SceneError;

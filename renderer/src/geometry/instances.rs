@@ -7,7 +7,8 @@
 //! of once per copy: one transform maps equal positions to equal positions, so a mesh's
 //! welded vertices are welded in every instance of it.
 
-use glam::Vec3;
+use glam::{DMat3, DMat4, DVec3, Vec3};
+use std::sync::Arc;
 
 /// A mesh's triangles as welded vertex ids in its own space: corners at bit-identical
 /// positions (in the file, -0.0 as 0.0) share an id, across its primitives too.
@@ -71,6 +72,73 @@ impl TriangleOrigin {
 
     pub fn is_loose(self) -> bool {
         self.instance == u32::MAX
+    }
+}
+
+/// A primitive's vertex data as the file holds it, shared by every placement of its mesh.
+#[derive(Debug, Default)]
+pub struct PrimitiveData {
+    pub positions: Vec<[f32; 3]>,
+    pub normals: Option<Vec<[f32; 3]>>,
+    pub uvs: Option<Vec<[f32; 2]>>,
+    /// Per triangle: its corners (the file's winding) into the vertex arrays.
+    pub corners: Vec<[u32; 3]>,
+}
+
+/// A node's placement of a mesh kept unflattened (see `Geometry::keep_instances`): the
+/// mesh's primitives, the world transform, a material per primitive and the instance.
+#[derive(Debug, Clone)]
+pub struct Placement {
+    pub primitives: Arc<Vec<PrimitiveData>>,
+    pub world: DMat4,
+    pub materials: Arc<[u32]>,
+    pub instance: u32,
+}
+
+/// The one arithmetic that places a mesh's corners and normals in world space. The loader's
+/// flattening and the queries on kept instances both use it, so a triangle is the same bits
+/// either way.
+#[derive(Debug, Clone, Copy)]
+pub struct Placing {
+    world: DMat4,
+    normal_from_file: DMat3,
+    mirrored: bool,
+}
+
+impl Placing {
+    pub fn new(world: DMat4) -> Placing {
+        let normal_from_file = DMat3::from_mat4(world).inverse().transpose();
+        Placing { world, normal_from_file, mirrored: world.determinant() < 0.0 }
+    }
+
+    pub fn world(&self) -> DMat4 {
+        self.world
+    }
+
+    /// A triangle's corners in the order that keeps its front face: the last two swapped
+    /// under a mirroring transform.
+    #[inline(always)]
+    pub fn corners(&self, mut c: [u32; 3]) -> [u32; 3] {
+        if self.mirrored {
+            c.swap(1, 2);
+        }
+        c
+    }
+
+    /// A file position in world space (f64).
+    #[inline(always)]
+    pub fn position(&self, p: [f32; 3]) -> DVec3 {
+        self.world.transform_point3(DVec3::from(p.map(f64::from)))
+    }
+
+    /// The corners' normals in world space (unit, f32), or `None` where the file has none
+    /// or one of them does not survive the transform (the face normal stands in).
+    pub fn normals(&self, normals: Option<&[[f32; 3]]>, c: [u32; 3]) -> Option<[Vec3; 3]> {
+        let ns = normals?;
+        let n = c.map(|i| {
+            (self.normal_from_file * DVec3::from(ns[i as usize].map(f64::from))).normalize_or_zero().as_vec3()
+        });
+        n.iter().all(|v| v.is_finite() && v.length_squared() > 0.5).then_some(n)
     }
 }
 

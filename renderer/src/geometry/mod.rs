@@ -3,6 +3,7 @@
 //! and their sampling, materials.
 
 pub mod camera;
+pub mod instanced;
 pub mod instances;
 pub mod irradiance_strata;
 pub mod light;

@@ -15,6 +15,14 @@ pub const SHAPE_PRECISION: f64 = 256.0;
 /// Whether the triangle `p` has zero area relative to its own size:
 /// `|e1 x e2| <= DEGENERATE_SINE |e1| |e2|`, on edges scaled to unit size first so that
 /// neither tiny nor huge triangles under- or overflow. Non-finite corners count as degenerate.
+/// The unit face normal of a render-space triangle `q` (its f32 corners in f64), as the
+/// scene stores it where a file gives no normals: scaled by its first edge first, so that tiny
+/// and huge triangles alike normalise.
+pub fn render_face(q: [DVec3; 3]) -> DVec3 {
+    let m = (q[1] - q[0]).abs().max_element();
+    ((q[1] - q[0]) / m).cross((q[2] - q[0]) / m).normalize()
+}
+
 pub fn is_degenerate(p: [DVec3; 3]) -> bool {
     let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
     let m = e1.abs().max_element().max(e2.abs().max_element());

@@ -271,6 +271,7 @@ fn raw_scene(tris: &[[Vec3; 3]], light: RectLight) -> Scene {
         materials: vec![Material::diffuse([0.5; 3])],
         textures: Vec::new(),
         bvh: Some(bvh),
+        instanced: None,
         bounds_min: lo,
         bounds_max: hi,
         lights: vec![light],
@@ -310,6 +311,7 @@ fn tiny_and_huge_triangles_are_hit_and_occlude() {
             uv: Vec2::ZERO,
             material: 0,
             triangle: 0,
+            kept: None,
             front_face: true,
         };
         assert_eq!(traced_at(&scene, &below, 1), 0.0, "the {s} triangle does not occlude");

@@ -3,6 +3,7 @@
 //! the hit's own error bound that the one rule for ray origins uses ([`crate::geometry::ray_origin`]).
 
 use crate::geometry::camera::Camera;
+use crate::geometry::instanced::InstancedScene;
 use crate::geometry::instances::{Instance, MeshTopology, TriangleOrigin};
 use crate::geometry::light::RectLight;
 use crate::geometry::material::{Material, Texture};
@@ -35,8 +36,11 @@ pub struct SurfaceHit {
     pub point: ShadingPoint,
     pub uv: Vec2,
     pub material: u32,
-    /// Index into the BVH-ordered triangle arrays.
+    /// Index into the BVH-ordered triangle arrays; for a kept instance's triangle
+    /// (`kept`), its slot in its mesh's tree.
     pub triangle: u32,
+    /// The kept instance hit (an index into `Scene::instanced`'s `placed`), if any.
+    pub kept: Option<u32>,
     /// Whether the ray met the triangle's front (the side its counter-clockwise winding
     /// faces, as glTF defines it). Closed meshes are entered through front faces and left
     /// through back faces, which is how a depth map tells their interiors.
@@ -76,6 +80,9 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// `None` for a scene without triangles (every ray misses).
     pub bvh: Option<Bvh2>,
+    /// Instances kept unflattened (a scene too big to flatten): traced through their own
+    /// trees ([`crate::geometry::instanced`]), with the same answers.
+    pub instanced: Option<InstancedScene>,
     /// Bounds of all triangles (render space).
     pub bounds_min: Vec3,
     pub bounds_max: Vec3,
@@ -138,7 +145,25 @@ impl Scene {
         let counted = |o: &TriangleOrigin| {
             o.is_loose() || first[self.instances[o.instance as usize].mesh as usize] == o.instance
         };
-        self.origins.iter().filter(|o| counted(o)).count() as u64
+        let flat = self.origins.iter().filter(|o| counted(o)).count() as u64;
+        // Kept instances: each mesh's tree over what its first instance keeps.
+        let kept = self.instanced.as_ref().map_or(0, |inst| {
+            let mut seen = vec![false; self.meshes.len()];
+            let mut n = 0u64;
+            for p in &inst.placed {
+                let mesh = self.instances[p.instance as usize].mesh as usize;
+                if !std::mem::replace(&mut seen[mesh], true) {
+                    n += inst.meshes[p.mesh as usize].slots.len() as u64;
+                }
+            }
+            n
+        });
+        flat + kept
+    }
+
+    /// How many instances are kept unflattened ([`crate::geometry::instanced`]).
+    pub fn kept_instances(&self) -> u64 {
+        self.instanced.as_ref().map_or(0, |i| i.placed.len() as u64)
     }
 
     /// The unit geometric normal of a triangle (its winding's side): from the f32 cross
@@ -201,12 +226,83 @@ impl Scene {
         }
     }
 
+    /// A kept instance's triangle's hit distance (alpha test honoured): [`Self::hit_distance`]
+    /// for the triangle the flattened scene would hold.
+    #[inline(always)]
+    fn kept_hit_distance(
+        &self,
+        inst: &InstancedScene,
+        placed: usize,
+        slot: usize,
+        ray: &ShearedRay,
+        tmax: f32,
+    ) -> f32 {
+        let p = &inst.placed[placed];
+        let t = inst.triangle(p, slot);
+        match ray.intersect(&t.tri, tmax) {
+            None => f32::INFINITY,
+            Some((d, b1, b2)) => {
+                if self.any_alpha_test {
+                    let m = &self.materials[p.materials[t.primitive as usize] as usize];
+                    if m.is_cutout(inst.uv_at(p, &t, b1, b2), &self.textures) {
+                        return f32::INFINITY;
+                    }
+                }
+                d
+            }
+        }
+    }
+
+    /// Whether a kept instance's triangle lies on `ray` (with its sheared form) within its range.
+    #[inline]
+    fn kept_occluded(&self, ray: &Ray, sheared: &ShearedRay) -> bool {
+        self.instanced.as_ref().is_some_and(|inst| {
+            inst.traverse(ray, true, |p, slot, tmax| self.kept_hit_distance(inst, p, slot, sheared, tmax))
+                .is_some()
+        })
+    }
+
+    /// An error for `method` if this scene keeps instances unflattened: a method that reads
+    /// the triangle arrays (its own structures over them) would miss those instances.
+    pub fn require_flattened(&self, method: &'static str) -> Result<(), crate::ShadowError> {
+        match &self.instanced {
+            None => Ok(()),
+            Some(inst) => Err(crate::ShadowError {
+                method,
+                message: format!(
+                    "the scene keeps {} instances unflattened (it does not fit in memory flattened); \
+                     this method needs its triangles flattened: use `traced`",
+                    inst.placed.len()
+                ),
+            }),
+        }
+    }
+
+    /// The render-space triangle a hit lies on.
+    pub fn hit_triangle(&self, hit: &SurfaceHit) -> Triangle {
+        match (hit.kept, &self.instanced) {
+            (Some(p), Some(inst)) => inst.triangle(&inst.placed[p as usize], hit.triangle as usize).tri,
+            _ => self.triangles[hit.triangle as usize],
+        }
+    }
+
     /// Closest hit along `ray` (alpha test honoured).
     pub fn intersect(&self, ray: Ray) -> Option<SurfaceHit> {
-        let bvh = self.bvh.as_ref()?;
         let mut hit = obvhs::ray::RayHit::none();
         let sheared = ShearedRay::new(&ray);
-        if !bvh.ray_traverse(ray, &mut hit, |r, slot| self.hit_distance(&sheared, r.tmax, slot)) {
+        let flat = self.bvh.as_ref().is_some_and(|bvh| {
+            bvh.ray_traverse(ray, &mut hit, |r, slot| self.hit_distance(&sheared, r.tmax, slot))
+        });
+        if let Some(inst) = &self.instanced {
+            let nearer = Ray { tmax: if flat { hit.t } else { ray.tmax }, ..ray };
+            let found = inst.traverse(&nearer, false, |p, slot, tmax| {
+                self.kept_hit_distance(inst, p, slot, &sheared, tmax)
+            });
+            if let Some((t, p, slot)) = found {
+                return self.kept_hit(inst, (p, slot), t, &sheared, &ray);
+            }
+        }
+        if !flat {
             return None;
         }
         let slot = hit.primitive_id as usize;
@@ -229,6 +325,44 @@ impl Scene {
             uv: self.uv_at(slot, b1, b2),
             material: sh.material,
             triangle: slot as u32,
+            kept: None,
+            front_face,
+        })
+    }
+
+    /// [`Self::intersect`]'s hit on a kept instance's triangle: the same arithmetic on the
+    /// triangle, normals and texture coordinates the flattened scene would store.
+    fn kept_hit(
+        &self,
+        inst: &InstancedScene,
+        (placed, slot): (usize, usize),
+        t: f32,
+        sheared: &ShearedRay,
+        ray: &Ray,
+    ) -> Option<SurfaceHit> {
+        let p = &inst.placed[placed];
+        let pt = inst.triangle(p, slot);
+        let tri = &pt.tri;
+        let HitPoint { p: at, p_error, b1, b2 } = sheared.hit_point(tri)?;
+        let d = Vec3::from(ray.direction);
+        let mut n_geom = Self::face_normal(tri);
+        let front_face = n_geom.dot(d) < 0.0;
+        if !front_face {
+            n_geom = -n_geom;
+        }
+        let n = inst.normals(p, &pt).unwrap_or_else(|| {
+            let q = [tri.v0, tri.v1, tri.v2].map(|v| Vec3::from(v).as_dvec3());
+            [crate::geometry::precision::render_face(q).as_vec3(); 3]
+        });
+        let n_shading = ((1.0 - b1 - b2) * n[0] + b1 * n[1] + b2 * n[2]).normalize_or_zero();
+        let n_shading = Self::facing_ray(n_shading, n_geom, d);
+        Some(SurfaceHit {
+            t,
+            point: ShadingPoint { p: at, p_error, n_geom, n_shading },
+            uv: inst.uv_at(p, &pt, b1, b2),
+            material: p.materials[pt.primitive as usize],
+            triangle: slot as u32,
+            kept: Some(placed as u32),
             front_face,
         })
     }
@@ -238,13 +372,11 @@ impl Scene {
     #[inline]
     pub fn occluded(&self, ray: Ray) -> bool {
         crate::util::profile::count_ray();
-        match &self.bvh {
-            None => false,
-            Some(bvh) => {
-                let sheared = ShearedRay::new(&ray);
-                !bvh.ray_traverse_miss(ray, |r, slot| self.hit_distance(&sheared, r.tmax, slot))
-            }
-        }
+        let sheared = ShearedRay::new(&ray);
+        let flat = self.bvh.as_ref().is_some_and(|bvh| {
+            !bvh.ray_traverse_miss(ray, |r, slot| self.hit_distance(&sheared, r.tmax, slot))
+        });
+        flat || self.kept_occluded(&ray, &sheared)
     }
 
     /// Whether the segment from surface point `point` to `target` (error bound
@@ -291,15 +423,13 @@ impl Scene {
     ) -> bool {
         let Some(ray) = shadow_ray_from(origin, target, target_error, target_normal) else { return false };
         crate::util::profile::count_ray();
-        match &self.bvh {
-            None => false,
-            Some(bvh) => {
-                let sheared = ShearedRay::new(&ray);
-                !bvh.ray_traverse_miss(ray, |r, slot| {
-                    if skip(slot) { f32::INFINITY } else { self.hit_distance(&sheared, r.tmax, slot) }
-                })
-            }
-        }
+        let sheared = ShearedRay::new(&ray);
+        let flat = self.bvh.as_ref().is_some_and(|bvh| {
+            !bvh.ray_traverse_miss(ray, |r, slot| {
+                if skip(slot) { f32::INFINITY } else { self.hit_distance(&sheared, r.tmax, slot) }
+            })
+        });
+        flat || self.kept_occluded(&ray, &sheared)
     }
 
     /// Whether the shadow ray [`Scene::segment_occluded_from`] builds meets any of the

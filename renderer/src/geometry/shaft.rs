@@ -30,6 +30,7 @@
 //! ray ends at least that far in front (it stops that fraction of its length short of a
 //! point not behind the plane).
 
+use crate::geometry::instanced::{InstancedScene, Placed};
 use crate::geometry::light::RectLight;
 use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::{SHADOW_EPSILON, gamma, offset_origin};
@@ -372,7 +373,20 @@ impl Scene {
     /// Calls `visit` with the slot of every triangle the shaft test cannot separate from
     /// `shaft` (a superset of those that meet it), in BVH order, until `visit` returns
     /// `false`; returns whether every call returned `true` (also when there was none).
+    ///
+    /// A kept instance's triangle (`Scene::instanced`) the shaft cannot separate ends the walk
+    /// with `false`, unvisited (it has no slot): a proof of clearance fails there, and a
+    /// method that needs every triangle refuses such scenes.
     pub fn shaft_triangles(&self, shaft: &Shaft, mut visit: impl FnMut(usize) -> bool) -> bool {
+        if let Some(inst) = &self.instanced {
+            let clear = |k: usize| {
+                let p = &inst.placed[inst.tlas.primitive_indices[k] as usize];
+                shaft.box_outside(p.bounds.min, p.bounds.max) || kept_clear(inst, p, shaft)
+            };
+            if !shaft_leaves(&inst.tlas, shaft, |_| false, |first, count| (first..first + count).all(clear)) {
+                return false;
+            }
+        }
         let Some(bvh) = &self.bvh else { return true };
         shaft_leaves(
             bvh,
@@ -388,6 +402,42 @@ impl Scene {
             },
         )
     }
+}
+
+/// Whether the shaft separates every triangle of the kept instance `p`: its mesh's tree
+/// walked with each box carried into render space (in f64, grown by 2^-20 of its reach for
+/// the f32 rounding; the tree's boxes already hold the placed corners' rounding), each leaf's
+/// triangles placed as the flattened scene holds them and tested as it tests them.
+fn kept_clear(inst: &InstancedScene, p: &Placed, shaft: &Shaft) -> bool {
+    let bvh = &inst.meshes[p.mesh as usize].bvh;
+    let world = p.placing.world();
+    let linear = glam::DMat3::from_mat4(world);
+    let abs = glam::DMat3::from_cols(linear.x_axis.abs(), linear.y_axis.abs(), linear.z_axis.abs());
+    let outside = |n: &obvhs::bvh2::node::Bvh2Node| {
+        let (lo, hi) = (Vec3::from(n.aabb.min).as_dvec3(), Vec3::from(n.aabb.max).as_dvec3());
+        let c = world.transform_point3(0.5 * (lo + hi)) - inst.offset;
+        let e = abs * (0.5 * (hi - lo));
+        let grow = e + (c.abs() + e) * (1.0 / (1u64 << 20) as f64);
+        shaft.box_outside(Vec3A::from((c - grow).as_vec3()), Vec3A::from((c + grow).as_vec3()))
+    };
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let n = &bvh.nodes[i];
+        if outside(n) {
+            continue;
+        }
+        if n.prim_count == 0 {
+            stack.extend([n.first_index as usize, n.first_index as usize + 1]);
+            continue;
+        }
+        for slot in n.first_index as usize..(n.first_index + n.prim_count) as usize {
+            let t = inst.triangle(p, slot).tri;
+            if !shaft.triangle_outside(t.v0, t.v1, t.v2) {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 /// Calls `leaf(first, count)` for every leaf of `bvh` whose box the shaft does not exclude

@@ -40,7 +40,7 @@ impl FrameTally {
             for hit in hits.iter().flatten() {
                 let d = hit.point.p.as_dvec3().length();
                 p.farthest_m = p.farthest_m.max(d);
-                let t = &scene.triangles[hit.triangle as usize];
+                let t = &scene.hit_triangle(hit);
                 let size =
                     [t.v1 - t.v0, t.v2 - t.v1, t.v0 - t.v2].iter().map(|e| e.length()).fold(0.0, f32::max);
                 p.imprecise += u64::from(f32_spacing(d) > size as f64 / SHAPE_PRECISION);

@@ -70,6 +70,11 @@ pub trait MethodEntry: MethodParams {
     /// ties in the registry's order.
     const BENCH_RANK: u32 = u32::MAX;
 
+    /// Whether it renders a scene whose instances are kept unflattened
+    /// ([`crate::geometry::instanced`]): only through the scene's ray queries, never its
+    /// triangle arrays. A scene too big to flatten is refused for the others, before loading.
+    const TRACES_KEPT_INSTANCES: bool = false;
+
     /// The settings the bench sweeps (`quick`: the short sweep of `--quick`), in order.
     fn sweep(quick: bool) -> Vec<SweepSetting>;
 

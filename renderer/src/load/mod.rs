@@ -4,4 +4,5 @@
 
 pub mod config;
 pub mod gltf_load;
+mod kept_instances;
 pub mod scene_load;

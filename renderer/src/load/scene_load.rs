@@ -17,23 +17,45 @@ use rayon::prelude::*;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
+/// How a scene is loaded: the memory it may take and whether it may keep instances.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct LoadOptions {
+    /// Bytes the load may use at its peak (`None`: no limit).
+    pub memory_limit: Option<u64>,
+    pub keep: KeepInstances,
+}
+
+/// Whether glTF placements of meshes may stay unflattened ([`crate::geometry::instanced`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum KeepInstances {
+    /// Flatten every placement (what every shadow method but `traced` and `none` needs).
+    #[default]
+    Never,
+    /// Keep them where the flattened scene would not fit in the memory limit.
+    WhenNeeded,
+    /// Keep them always (tests: the kept scene against the flattened one).
+    Always,
+}
+
 impl Scene {
     /// Loads a scene file: models, quads, camera, lights; builds the BVH.
     pub fn load(file: &SceneFile, scene_path: &Path) -> Result<Scene, SceneError> {
-        Self::load_within(file, scene_path, None)
+        Self::load_with(file, scene_path, LoadOptions::default())
     }
 
-    /// [`Scene::load`], refusing a model whose triangles would take the scene past
-    /// `memory_limit` bytes at the load's peak (an error naming the file and how much it
-    /// needs, before its buffers are read; see `gltf_load::BYTES_PER_TRIANGLE`).
-    pub fn load_within(
-        file: &SceneFile,
-        scene_path: &Path,
-        memory_limit: Option<u64>,
-    ) -> Result<Scene, SceneError> {
+    /// [`Scene::load`] under `options`: a model whose flattened triangles would take the
+    /// scene past the memory limit keeps its instances unflattened where the options allow
+    /// it and they fit, else is refused (an error naming the file and how much it needs,
+    /// before its buffers are read; see `gltf_load::BYTES_PER_TRIANGLE`).
+    pub fn load_with(file: &SceneFile, scene_path: &Path, options: LoadOptions) -> Result<Scene, SceneError> {
         let t0 = Instant::now();
         let load_span = tracing::info_span!("load").entered();
-        let mut geometry = Geometry { memory_limit, ..Geometry::default() };
+        let mut geometry = Geometry {
+            memory_limit: options.memory_limit,
+            keep_instances: options.keep == KeepInstances::Always,
+            may_keep_instances: options.keep != KeepInstances::Never,
+            ..Geometry::default()
+        };
         let gltf_camera = load_models(file, scene_path, &mut geometry)?;
         for q in &file.quad {
             geometry.add_quad(DVec3::from(q.center), DVec3::from(q.u), DVec3::from(q.v), q.color);
@@ -74,11 +96,23 @@ impl Scene {
         world_offset: DVec3,
         load: Duration,
     ) -> Scene {
-        let Geometry { triangles: source, materials, textures, degenerate, meshes, instances, .. } = geometry;
+        let Geometry {
+            triangles: source,
+            materials,
+            textures,
+            degenerate,
+            meshes,
+            instances,
+            placements,
+            ..
+        } = geometry;
         let mut tris = Vec::with_capacity(source.len());
         let mut shading = Vec::with_capacity(source.len());
         let mut origins = Vec::with_capacity(source.len());
         let mut precision = PrecisionTally { zero_area: degenerate, ..Default::default() };
+        // Kept instances first: the loader placed them before any quad or soup.
+        let (instanced, kept_triangles) =
+            super::kept_instances::build(placements, world_offset, &mut precision);
         for s in &source {
             let Some(face) = precision.keep(s.p, world_offset) else { continue };
             let p = s.p.map(|p| (p - world_offset).as_vec3());
@@ -94,7 +128,11 @@ impl Scene {
                 hi = hi.max(v.into());
             }
         }
-        if tris.is_empty() {
+        for p in instanced.iter().flat_map(|i| &i.placed) {
+            lo = lo.min(p.bounds.min.into());
+            hi = hi.max(p.bounds.max.into());
+        }
+        if tris.is_empty() && instanced.is_none() {
             (lo, hi) = (Vec3::ZERO, Vec3::ZERO);
         }
         let t_bvh = Instant::now();
@@ -119,7 +157,7 @@ impl Scene {
         let stats = LoadStats {
             load,
             bvh: bvh_time,
-            triangles: tris.len() as u64,
+            triangles: tris.len() as u64 + kept_triangles,
             degenerate_triangles: precision.zero_area + precision.collapsed + precision.out_of_range,
             zero_area: precision.zero_area,
             collapsed_in_f32: precision.collapsed,
@@ -135,6 +173,7 @@ impl Scene {
             materials,
             textures,
             bvh,
+            instanced,
             bounds_min: lo,
             bounds_max: hi,
             lights,
@@ -173,8 +212,8 @@ impl Geometry {
 /// What `Scene::build` learns about each triangle's precision in render space, and the
 /// warnings it makes of it.
 #[derive(Debug, Default)]
-struct PrecisionTally {
-    zero_area: u64,
+pub(super) struct PrecisionTally {
+    pub(super) zero_area: u64,
     collapsed: u64,
     /// The nearest collapsed triangle's distance from the camera.
     collapsed_nearest: f64,
@@ -196,7 +235,7 @@ const INTERSECTOR_ROUNDING: f64 = 200.0 * f64::EPSILON * 0.5;
 impl PrecisionTally {
     /// The unit face normal (render space) of the world-space triangle `p` if f32 can hold
     /// it relative to `origin`; else `None`, with the reason counted.
-    fn keep(&mut self, p: [DVec3; 3], origin: DVec3) -> Option<Vec3> {
+    pub(super) fn keep(&mut self, p: [DVec3; 3], origin: DVec3) -> Option<Vec3> {
         if is_degenerate(p) {
             self.zero_area += 1; // the loaders test this too; a caller of `build` may not
             return None;
@@ -224,10 +263,28 @@ impl PrecisionTally {
             }
             self.imprecise += 1;
         }
-        let m = (q[1] - q[0]).abs().max_element();
-        let face = ((q[1] - q[0]) / m).cross((q[2] - q[0]) / m).normalize();
+        let face = crate::geometry::precision::render_face(q);
         self.check_size(q, face, origin);
         Some(face.as_vec3())
+    }
+
+    /// Adds `other`'s counts, as if its triangles had been kept after this one's (the first
+    /// extreme wins a tie, as in one pass).
+    pub(super) fn merge(&mut self, other: &PrecisionTally) {
+        if other.collapsed > 0 && (self.collapsed == 0 || other.collapsed_nearest < self.collapsed_nearest) {
+            self.collapsed_nearest = other.collapsed_nearest;
+        }
+        if other.imprecise_farthest.0 > self.imprecise_farthest.0 {
+            self.imprecise_farthest = other.imprecise_farthest;
+        }
+        if other.oversized_worst.0 > self.oversized_worst.0 {
+            self.oversized_worst = other.oversized_worst;
+        }
+        self.zero_area += other.zero_area;
+        self.collapsed += other.collapsed;
+        self.out_of_range += other.out_of_range;
+        self.imprecise += other.imprecise;
+        self.oversized += other.oversized;
     }
 
     /// Counts the triangle (render space `q`, unit normal `face`) if it is so large against

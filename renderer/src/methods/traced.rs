@@ -46,6 +46,7 @@ impl MethodParams for Unshadowed {
 }
 
 impl MethodEntry for Unshadowed {
+    const TRACES_KEPT_INSTANCES: bool = true;
     const ABOUT: &'static str = "No shadows (V = 1): the cost floor";
     const KEYS_DOC: &'static str = "No keys.\n";
     /// The colour the plots give a family they do not know (`none` is never plotted).
@@ -140,6 +141,7 @@ impl MethodParams for TracedParams {
 pub const PLAIN_LABEL: &str = "traced plain";
 
 impl MethodEntry for TracedParams {
+    const TRACES_KEPT_INSTANCES: bool = true;
     const ABOUT: &'static str =
         "Shadow rays through the BVH to `samples` stratified points on the light: the truth";
     const KEYS_DOC: &'static str = "No keys: the samples are `[shadows].samples`. Shaft culling (proving \

@@ -227,6 +227,7 @@ impl LightShadowing for Silhouette {
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
+        ctx.scene.require_flattened(self.name())?;
         self.traced.prepare(ctx).map_err(|e| ShadowError { method: SilhouetteParams::NAME, ..e })?;
         self.edges = EdgeSet::build(ctx.scene, ctx.light);
         self.tree = EdgeTree::build(&self.edges);

@@ -2,10 +2,10 @@
 //! textures. Node transforms are composed in f64; every node of the default scene is
 //! expanded, nested TRS and matrices alike. Skins and morph targets are ignored (bind pose).
 
-use crate::geometry::instances::{Instance, MeshTopology, TriangleOrigin};
+use crate::geometry::instances::{Instance, MeshTopology, Placement, Placing, PrimitiveData, TriangleOrigin};
 use crate::geometry::material::{AlphaMode, Material, Texture, TextureRef, Wrap};
 use crate::util::error::SceneError;
-use glam::{Affine2, DMat3, DMat4, DVec3, Mat2, Vec2, Vec3, Vec4};
+use glam::{Affine2, DMat4, DVec3, Mat2, Vec2, Vec3, Vec4};
 use gltf::Semantic;
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
@@ -61,6 +61,14 @@ pub struct Geometry {
     /// One line each: what a user should hear of the files loaded (URIs out of a model's
     /// folder).
     pub warnings: Vec<String>,
+    /// glTF placements kept unflattened (when `keep_instances`): each mesh stored once, the
+    /// scene traces it through a second level ([`crate::geometry::instanced`]).
+    pub placements: Vec<Placement>,
+    /// Whether the loader keeps placements of meshes as [`Placement`]s instead of flattening
+    /// them: set where the flattened scene would not fit in `memory_limit` and
+    /// `may_keep_instances` allows it (or by a caller).
+    pub keep_instances: bool,
+    pub may_keep_instances: bool,
     /// Bytes the load may use at its peak: a file whose triangles, once every instance is
     /// flattened, would need more ([`BYTES_PER_TRIANGLE`] each) is refused before its
     /// buffers are read. `None`: no limit.
@@ -73,6 +81,10 @@ pub struct Geometry {
 /// field of 100 boulders (8.2 M triangles), 492 on metal-rough-spheres (1.0 M), more on small
 /// textured scenes. Taken low, so that a scene that fits is never refused.
 pub const BYTES_PER_TRIANGLE: u64 = 450;
+
+/// Bytes per kept instance (`geometry::instanced::Placed`, its pass and the top tree's share),
+/// rounded up.
+pub const BYTES_PER_INSTANCE: u64 = 512;
 
 /// What every primitive of one file reads beside itself: the file (its errors name it), its
 /// buffers, and where its materials start in the scene's list.
@@ -162,23 +174,47 @@ fn planned_triangles(doc: &gltf::Document) -> (u64, u64, u64) {
 /// more than `geometry.memory_limit` ([`BYTES_PER_TRIANGLE`] each): one line that says how
 /// much, before the memory is spent (10,000 copies of an 82k-triangle mesh in a 3.5 MB file
 /// were killed by the OOM killer after 82 s at 23.7 GB).
-fn refuse_beyond_memory(path: &Path, doc: &gltf::Document, geometry: &Geometry) -> Result<(), SceneError> {
+fn refuse_beyond_memory(
+    path: &Path,
+    doc: &gltf::Document,
+    geometry: &mut Geometry,
+) -> Result<(), SceneError> {
     let Some(limit) = geometry.memory_limit else { return Ok(()) };
     let (flattened, placed, unique) = planned_triangles(doc);
-    let total = (geometry.triangles.len() as u64).saturating_add(flattened);
+    let loaded = geometry.triangles.len() as u64;
+    let total = loaded.saturating_add(flattened);
     let need = total.saturating_mul(BYTES_PER_TRIANGLE);
-    if need <= limit {
+    if geometry.keep_instances || need <= limit {
+        return Ok(());
+    }
+    // Kept: each mesh's triangles once, and every instance's transform and bounds.
+    let kept =
+        (loaded + unique).saturating_mul(BYTES_PER_TRIANGLE).saturating_add(placed * BYTES_PER_INSTANCE);
+    if geometry.may_keep_instances && kept <= limit {
+        geometry.keep_instances = true;
         return Ok(());
     }
     let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+    let size = |b: u64| {
+        if b < 1 << 30 { format!("{} MiB", b.div_ceil(1 << 20)) } else { format!("{:.1} GiB", gib(b)) }
+    };
+    let kept_note = if geometry.may_keep_instances {
+        format!(" (with each mesh stored once, {})", size(kept))
+    } else {
+        format!(
+            "; `traced` and `none` can trace each mesh stored once ({}), the chosen method needs the \
+             triangles flattened",
+            size(kept)
+        )
+    };
     Err(SceneError::new(
         path,
         "nodes",
         format!(
             "the scene needs about {:.1} GiB to load and {:.1} GiB is available: {placed} instance(s) \
              (nodes and EXT_mesh_gpu_instancing copies) of meshes of {unique} distinct triangles, \
-             {total} triangles once every instance is flattened (penumbra stores each instance's \
-             triangles), about {BYTES_PER_TRIANGLE} bytes each",
+             {total} triangles once every instance is flattened, about {BYTES_PER_TRIANGLE} bytes \
+             each{kept_note}",
             gib(need),
             gib(limit)
         ),
@@ -316,6 +352,9 @@ fn load_buffers(
     Ok(buffers)
 }
 
+/// A mesh's identity at load: (POSITION accessor, indices accessor, mode) per primitive.
+type MeshKey = Vec<(usize, Option<usize>, u32)>;
+
 /// Loads the meshes of every node of `scene`, each under its world transform (the file's
 /// node transforms after `model_from_file`). Returns the first perspective camera met.
 fn load_nodes(
@@ -335,6 +374,8 @@ fn load_nodes(
     // A mesh's accessors (positions, indices, mode per primitive) -> the scene's mesh id,
     // for meshes already met.
     let mut meshes: HashMap<Vec<(usize, Option<usize>, u32)>, u32> = HashMap::new();
+    // The same key -> the mesh's primitives, for placements kept unflattened.
+    let mut kept: HashMap<MeshKey, std::sync::Arc<Vec<PrimitiveData>>> = HashMap::new();
     while let Some((node, parent, depth)) = stack.pop() {
         if !visited.insert(node.index()) {
             return Err(fail(
@@ -377,15 +418,44 @@ fn load_nodes(
             let known = meshes.get(&key).copied();
             let mut topology = known.is_none().then(TopologyBuilder::default);
             let mesh_id = known.unwrap_or(geometry.meshes.len() as u32);
+            // Kept instances read a mesh's primitives once (10,000 boulders' nodes would read
+            // 82k triangles each).
+            let cached = if geometry.keep_instances { kept.get(&key).cloned() } else { None };
             let mut read = Vec::new();
-            for prim in mesh.primitives() {
-                read.extend(read_primitive(file, &mesh, &prim, topology.as_mut())?);
+            if cached.is_none() {
+                for prim in mesh.primitives() {
+                    read.extend(read_primitive(file, &mesh, &prim, topology.as_mut())?);
+                }
             }
             if let Some(t) = topology {
-                meshes.insert(key, mesh_id);
+                meshes.insert(key.clone(), mesh_id);
                 geometry.meshes.push(t.finish());
             }
-            for placed in gpu_instancing::placements(file, &node, world)? {
+            let placements = gpu_instancing::placements(file, &node, world)?;
+            if geometry.keep_instances {
+                let prims: Vec<gltf::Primitive> = mesh.primitives().filter(has_triangles).collect();
+                let materials: std::sync::Arc<[u32]> = prims.iter().map(|p| material_id(file, p)).collect();
+                let data = match cached {
+                    Some(d) => d,
+                    None => {
+                        let d = std::sync::Arc::new(read.into_iter().map(|r| r.data).collect::<Vec<_>>());
+                        kept.insert(key, d.clone());
+                        d
+                    }
+                };
+                for placed in placements {
+                    let instance = geometry.instances.len() as u32;
+                    geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
+                    for (d, p) in data.iter().zip(&prims) {
+                        geometry.emitters.extend(emitter_of(d, &p.material(), placed));
+                    }
+                    let (primitives, materials) = (data.clone(), materials.clone());
+                    geometry.placements.push(Placement { primitives, world: placed, materials, instance });
+                }
+                continue_children(&node, world, depth, &mut stack);
+                continue;
+            }
+            for placed in placements {
                 let instance = geometry.instances.len() as u32;
                 geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
                 let mut origin = TriangleOrigin { instance, local: 0 };
@@ -395,12 +465,22 @@ fn load_nodes(
                 }
             }
         }
-        let children: Vec<_> = node.children().collect();
-        for child in children.into_iter().rev() {
-            stack.push((child, world, depth + 1));
-        }
+        continue_children(&node, world, depth, &mut stack);
     }
     Ok(camera)
+}
+
+/// Pushes `node`'s children (first child on top) for the depth-first walk.
+fn continue_children<'a>(
+    node: &gltf::Node<'a>,
+    world: DMat4,
+    depth: usize,
+    stack: &mut Vec<(gltf::Node<'a>, DMat4, usize)>,
+) {
+    let children: Vec<_> = node.children().collect();
+    for child in children.into_iter().rev() {
+        stack.push((child, world, depth + 1));
+    }
 }
 
 /// Whether gltf's import can decode `uri`: it unwraps `urlencoding::decode` of a URI without

@@ -21,41 +21,51 @@ impl TopologyBuilder {
 /// A primitive read once per node, placed by each of the node's transforms (one, or one
 /// per instance of `EXT_mesh_gpu_instancing`).
 pub(super) struct ReadPrimitive<'a> {
-    vertices: Vertices,
-    corners: Vec<[u32; 3]>,
-    material: gltf::Material<'a>,
-    mat_id: u32,
+    pub(super) data: PrimitiveData,
+    pub(super) material: gltf::Material<'a>,
+    pub(super) mat_id: u32,
 }
 
 impl ReadPrimitive<'_> {
     /// Its triangles (degenerate ones included): the next primitive's first index in the
     /// mesh is this one's plus this.
     pub(super) fn triangles(&self) -> u32 {
-        self.corners.len() as u32
+        self.data.corners.len() as u32
     }
 }
 
 /// Reads primitive `prim` of `mesh` (of the file `file` describes), and adds its triangles to
 /// `topology` at the mesh's first use. `None` for points and lines (no area: nothing to
 /// render or shadow).
+/// Whether `prim` holds triangles (points and lines have no area: nothing to render or
+/// shadow).
+pub(super) fn has_triangles(prim: &gltf::Primitive) -> bool {
+    matches!(prim.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)
+}
+
+/// The scene's index of `prim`'s material.
+pub(super) fn material_id(file: &FileContext, prim: &gltf::Primitive) -> u32 {
+    match prim.material().index() {
+        Some(i) => file.material_base + i as u32,
+        None => file.default_material,
+    }
+}
+
 pub(super) fn read_primitive<'a>(
     file: &FileContext,
     mesh: &gltf::Mesh,
     prim: &gltf::Primitive<'a>,
     topology: Option<&mut TopologyBuilder>,
 ) -> Result<Option<ReadPrimitive<'a>>, SceneError> {
-    let FileContext { path, buffers, material_base, default_material, .. } = *file;
+    let FileContext { path, buffers, .. } = *file;
     let key = format!("meshes[{}].primitives[{}]", mesh.index(), prim.index());
     let fail = |k: &str, msg: String| SceneError::new(path, format!("{key}{k}"), msg);
     let mode = prim.mode();
-    if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+    if !has_triangles(prim) {
         return Ok(None);
     }
     let material = prim.material();
-    let mat_id = match material.index() {
-        Some(i) => material_base + i as u32,
-        None => default_material,
-    };
+    let mat_id = material_id(file, prim);
     let uv_set = material
         .pbr_metallic_roughness()
         .base_color_texture()
@@ -69,7 +79,8 @@ pub(super) fn read_primitive<'a>(
         t.positions.extend(vertices.positions.iter().map(|&p| Vec3::from(p)));
         t.corners.extend(corners.iter().map(|c| c.map(|i| base + i)));
     }
-    Ok(Some(ReadPrimitive { vertices, corners, material, mat_id }))
+    let Vertices { positions, normals, uvs, .. } = vertices;
+    Ok(Some(ReadPrimitive { data: PrimitiveData { positions, normals, uvs, corners }, material, mat_id }))
 }
 
 /// Appends `prim`'s triangles under the world transform `world` to `geometry`, the first as
@@ -80,7 +91,7 @@ pub(super) fn place_primitive(
     origin: TriangleOrigin,
     geometry: &mut Geometry,
 ) {
-    push_triangles(world, &prim.vertices, &prim.corners, &prim.material, (prim.mat_id, origin), geometry);
+    push_triangles(world, &prim.data, &prim.material, (prim.mat_id, origin), geometry);
 }
 
 /// POSITION, NORMAL, TEXCOORD_`uv_set` and the indices of `prim`, each checked (when
@@ -214,52 +225,71 @@ pub(super) fn triangle_corners(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
 /// emissive texture) also become one emitter candidate.
 pub(super) fn push_triangles(
     world: DMat4,
-    vertices: &Vertices,
-    corners: &[[u32; 3]],
+    data: &PrimitiveData,
     material: &gltf::Material,
     (mat_id, origin): (u32, TriangleOrigin),
     geometry: &mut Geometry,
 ) {
-    let Vertices { positions, normals, uvs, .. } = vertices;
-    let normal_from_file = DMat3::from_mat4(world).inverse().transpose();
-    let mirrored = world.determinant() < 0.0;
-    let emissive = Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0);
-    let is_emitter =
-        emissive.max_element() > 0.0 && material.emissive_texture().is_none() && emissive.is_finite();
+    let PrimitiveData { positions, normals, uvs, corners } = data;
+    let placing = Placing::new(world);
+    let emissive = emission(material);
     let mut emitter_tris = Vec::new();
     for (local, &c) in (origin.local..).zip(corners) {
         let origin = TriangleOrigin { local, ..origin };
-        let mut c = c;
-        if mirrored {
-            c.swap(1, 2); // keep the winding (and so the front face) under a mirroring transform
-        }
-        let p = c.map(|i| world.transform_point3(DVec3::from(positions[i as usize].map(f64::from))));
+        // The winding (and so the front face) kept under a mirroring transform.
+        let c = placing.corners(c);
+        let p = c.map(|i| placing.position(positions[i as usize]));
         if crate::geometry::precision::is_degenerate(p) {
             geometry.degenerate += 1;
             continue;
         }
-        let n = normals.as_ref().and_then(|ns| {
-            let n = c.map(|i| {
-                (normal_from_file * DVec3::from(ns[i as usize].map(f64::from))).normalize_or_zero().as_vec3()
-            });
-            n.iter().all(|v| v.is_finite() && v.length_squared() > 0.5).then_some(n)
-        });
+        let n = placing.normals(normals.as_deref(), c);
         let uv = match uvs {
             Some(t) => c.map(|i| Vec2::from(t[i as usize])),
             None => [Vec2::ZERO; 3],
         };
         geometry.triangles.push(SourceTriangle { p, n, uv, material: mat_id, origin });
-        if is_emitter {
+        if emissive.is_some() {
             emitter_tris.push(p);
         }
     }
-    if !emitter_tris.is_empty() {
+    if let Some(radiance) = emissive.filter(|_| !emitter_tris.is_empty()) {
         geometry.emitters.push(EmitterCandidate {
             triangles: emitter_tris,
-            radiance: emissive,
+            radiance,
             double_sided: material.double_sided(),
         });
     }
+}
+
+/// A material's emitted radiance where its triangles can make a light: emissiveFactor x
+/// emissive strength, positive and finite, without an emissive texture.
+fn emission(material: &gltf::Material) -> Option<Vec3> {
+    let emissive = Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0);
+    (emissive.max_element() > 0.0 && material.emissive_texture().is_none() && emissive.is_finite())
+        .then_some(emissive)
+}
+
+/// The emitter candidate of `prim` placed by `world` (its non-degenerate triangles in world
+/// space, as [`push_triangles`] collects them), for a placement kept unflattened.
+pub(super) fn emitter_of(
+    data: &PrimitiveData,
+    material: &gltf::Material,
+    world: DMat4,
+) -> Option<EmitterCandidate> {
+    let radiance = emission(material)?;
+    let placing = Placing::new(world);
+    let triangles: Vec<[DVec3; 3]> = data
+        .corners
+        .iter()
+        .map(|&c| placing.corners(c).map(|i| placing.position(data.positions[i as usize])))
+        .filter(|p| !crate::geometry::precision::is_degenerate(*p))
+        .collect();
+    (!triangles.is_empty()).then(|| EmitterCandidate {
+        triangles,
+        radiance,
+        double_sided: material.double_sided(),
+    })
 }
 
 /// Checks what gltf's accessor readers assume: at least one element (also in a sparse

@@ -1,0 +1,174 @@
+//! Meshes kept as instances: each stored once in its own space under a tree of its own, and a
+//! top tree over the instances' bounds. A scene whose flattened triangles would not fit in
+//! memory keeps its glTF placements this way (`Geometry::keep_instances`).
+//!
+//! The answers are the flattened scene's, bit for bit. The trees only choose which triangles
+//! to test. Each test places the triangle's corners in render space with the loader's own
+//! arithmetic ([`Placing`], then the render offset, rounded to f32), so it tests the
+//! triangle the flattened scene would hold, with the same watertight test and the same ray.
+//! Seams between instances stay closed. The mesh's tree is walked with the ray moved into
+//! the mesh's space. Its boxes are grown by a bound on two roundings: that move's, and the
+//! f32 rounding of the placed corners. So no triangle a ray meets is culled.
+//!
+//! Cost (measured on flight-helmet, metal-rough-spheres and toy-car, every triangle placed on
+//! the fly): `traced` renders 14-31% slower than from stored triangles.
+
+use crate::geometry::instances::{Placing, PrimitiveData};
+use glam::{DMat4, DVec3, Vec2, Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+use obvhs::ray::{Ray, RayHit};
+use obvhs::triangle::Triangle;
+use std::sync::Arc;
+
+/// One mesh as its instances share it: its primitives, and its tree over the triangles they
+/// keep (boxes grown for every instance that uses it).
+pub struct StoredMesh {
+    pub primitives: Arc<Vec<PrimitiveData>>,
+    /// Per leaf slot (tree order): the primitive, the triangle's index in it, and its index
+    /// in the mesh.
+    pub slots: Vec<[u32; 3]>,
+    pub bvh: Bvh2,
+}
+
+/// One instance: its mesh, transform and materials.
+#[derive(Debug)]
+pub struct Placed {
+    pub mesh: u32,
+    pub placing: Placing,
+    /// Render space to the mesh's space.
+    pub to_mesh: DMat4,
+    /// A material per primitive.
+    pub materials: Arc<[u32]>,
+    pub instance: u32,
+    /// Render-space bounds of its triangles.
+    pub bounds: Aabb,
+}
+
+/// The kept instances of a scene (see the module doc).
+pub struct InstancedScene {
+    pub meshes: Vec<StoredMesh>,
+    pub placed: Vec<Placed>,
+    /// Over `placed`'s bounds; leaves index `placed` through `primitive_indices`.
+    pub tlas: Bvh2,
+    /// World position of the render-space origin.
+    pub offset: DVec3,
+}
+
+/// A triangle of a kept instance, placed: its render-space corners, primitive and corners'
+/// indices.
+#[derive(Debug, Clone, Copy)]
+pub struct PlacedTriangle {
+    pub tri: Triangle,
+    pub primitive: u32,
+    pub corners: [u32; 3],
+}
+
+impl InstancedScene {
+    /// The triangle at `slot` of `p`'s mesh tree, in render space: the flattened scene's bits.
+    #[inline(always)]
+    pub fn triangle(&self, p: &Placed, slot: usize) -> PlacedTriangle {
+        let mesh = &self.meshes[p.mesh as usize];
+        let [prim, k, _] = mesh.slots[slot];
+        let data = &mesh.primitives[prim as usize];
+        let corners = p.placing.corners(data.corners[k as usize]);
+        let v = corners
+            .map(|i| Vec3A::from((p.placing.position(data.positions[i as usize]) - self.offset).as_vec3()));
+        PlacedTriangle { tri: Triangle { v0: v[0], v1: v[1], v2: v[2] }, primitive: prim, corners }
+    }
+
+    /// The texture coordinates at barycentrics (b1, b2) of a placed triangle.
+    pub fn uv_at(&self, p: &Placed, t: &PlacedTriangle, b1: f32, b2: f32) -> Vec2 {
+        let data = &self.meshes[p.mesh as usize].primitives[t.primitive as usize];
+        match &data.uvs {
+            Some(uv) => {
+                let uv = t.corners.map(|i| Vec2::from(uv[i as usize]));
+                (1.0 - b1 - b2) * uv[0] + b1 * uv[1] + b2 * uv[2]
+            }
+            None => Vec2::ZERO,
+        }
+    }
+
+    /// The corners' world normals of a placed triangle (`None`: the face normal stands in).
+    pub fn normals(&self, p: &Placed, t: &PlacedTriangle) -> Option<[Vec3; 3]> {
+        let data = &self.meshes[p.mesh as usize].primitives[t.primitive as usize];
+        p.placing.normals(data.normals.as_deref(), t.corners)
+    }
+
+    /// The triangles `ray` may meet, per instance whose bounds it meets: `test(placed, slot,
+    /// tmax)` gives the hit's t (render space, the ray's own parameter) or infinity. With
+    /// `any`, stops at the first hit. Returns the closest (t, placed, slot) found.
+    pub fn traverse(
+        &self,
+        ray: &Ray,
+        any: bool,
+        mut test: impl FnMut(usize, usize, f32) -> f32,
+    ) -> Option<(f32, usize, usize)> {
+        let mut best: Option<(f32, usize, usize)> = None;
+        let mut top = |r: &Ray, leaf: usize| -> f32 {
+            let pi = self.tlas.primitive_indices[leaf] as usize;
+            let p = &self.placed[pi];
+            let Some(start) = entry(&p.bounds, r) else { return f32::INFINITY };
+            // The ray moved into the mesh's space from where it enters the instance's bounds:
+            // the move's rounding is then bounded by the mesh's size, not the ray's length.
+            let (o, d) = (Vec3::from(r.origin).as_dvec3(), Vec3::from(r.direction).as_dvec3());
+            let o_mesh = p.to_mesh.transform_point3(o + start * d);
+            let d_mesh = p.to_mesh.transform_vector3(d);
+            let (lo, hi) = ((r.tmin as f64 - start).max(0.0) as f32, (r.tmax as f64 - start) as f32);
+            let local = Ray::new(o_mesh.as_vec3().into(), d_mesh.as_vec3().into(), lo, hi);
+            let mut found = f32::INFINITY;
+            let world_tmax = r.tmax;
+            // The test takes the world ray's own range, not the moved ray's (its f32 rounding
+            // could let a hit just past the end of a segment through).
+            let mut inner = |_: &Ray, slot: usize| -> f32 {
+                let t = test(pi, slot, found.min(world_tmax));
+                if t < found {
+                    found = t;
+                    best = Some((t, pi, slot));
+                }
+                if t.is_finite() { (t as f64 - start) as f32 } else { f32::INFINITY }
+            };
+            let bvh = &self.meshes[p.mesh as usize].bvh;
+            if any {
+                if !bvh.ray_traverse_miss(local, &mut inner) {
+                    return found;
+                }
+            } else {
+                let mut hit = RayHit::none();
+                bvh.ray_traverse(local, &mut hit, &mut inner);
+            }
+            found
+        };
+        if any {
+            self.tlas.ray_traverse_miss(*ray, &mut top);
+        } else {
+            let mut hit = RayHit::none();
+            self.tlas.ray_traverse(*ray, &mut hit, &mut top);
+        }
+        best
+    }
+}
+
+/// Where the ray enters `b` (its own parameter, f64, at least its tmin), or `None` if it
+/// misses it within its range. Grown by a relative 1e-9 of the distances (f64 rounds them
+/// at 1e-16): the caller only starts the mesh's walk there.
+fn entry(b: &Aabb, r: &Ray) -> Option<f64> {
+    let o = Vec3::from(r.origin).as_dvec3();
+    let d = Vec3::from(r.direction).as_dvec3();
+    let (lo, hi) = (Vec3::from(b.min).as_dvec3(), Vec3::from(b.max).as_dvec3());
+    let (mut t0, mut t1) = (r.tmin as f64, r.tmax as f64);
+    for k in 0..3 {
+        if d[k] == 0.0 {
+            if o[k] < lo[k] || o[k] > hi[k] {
+                return None;
+            }
+            continue;
+        }
+        let (a, b) = ((lo[k] - o[k]) / d[k], (hi[k] - o[k]) / d[k]);
+        let (a, b) = if a < b { (a, b) } else { (b, a) };
+        let slack = 1e-9 * (a.abs() + b.abs());
+        t0 = t0.max(a - slack);
+        t1 = t1.min(b + slack);
+    }
+    (t0 <= t1).then_some(t0)
+}

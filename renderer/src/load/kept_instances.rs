@@ -1,0 +1,152 @@
+//! Building the kept instances ([`InstancedScene`]) from the loader's placements: which
+//! triangles each instance keeps (the flattened scene's rules, counted in the same tally),
+//! one tree per mesh and set of kept triangles, and the top tree over the instances.
+
+use super::scene_load::PrecisionTally;
+use crate::geometry::instanced::{InstancedScene, Placed, StoredMesh};
+use crate::geometry::instances::{Placement, Placing};
+use crate::geometry::precision::is_degenerate;
+use crate::geometry::scene::{bvh_params, cover_depth};
+use glam::{DMat4, DVec3, Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::triangle::Triangle;
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::Duration;
+
+/// What one instance keeps: the mesh indices of the triangles the flattened scene would drop
+/// (zero area, or lost to f32), its render-space bounds and largest coordinate, its tally.
+struct Pass {
+    dropped: Vec<u32>,
+    kept: u64,
+    bounds: Aabb,
+    tally: PrecisionTally,
+}
+
+/// The kept instances and how many triangles they hold (flattened), with `tally` counting
+/// their drops as the flattened scene's build would, instance by instance in order.
+pub(super) fn build(
+    placements: Vec<Placement>,
+    offset: DVec3,
+    tally: &mut PrecisionTally,
+) -> (Option<InstancedScene>, u64) {
+    let passes: Vec<Pass> = placements.par_iter().map(|p| pass(p, offset)).collect();
+    let mut kept_triangles = 0;
+    for p in &passes {
+        tally.merge(&p.tally);
+        kept_triangles += p.kept;
+    }
+    // One stored mesh per (mesh, dropped triangles): almost always one per mesh.
+    let mut groups: HashMap<(usize, Vec<u32>), u32> = HashMap::new();
+    let mut meshes: Vec<(Arc<Vec<crate::geometry::instances::PrimitiveData>>, Vec<u32>, f64)> = Vec::new();
+    let mut placed = Vec::new();
+    for (pl, pass) in placements.iter().zip(passes) {
+        if pass.kept == 0 {
+            continue;
+        }
+        let key = (Arc::as_ptr(&pl.primitives) as usize, pass.dropped);
+        let next = meshes.len() as u32;
+        let mesh = *groups.entry(key.clone()).or_insert_with(|| {
+            meshes.push((pl.primitives.clone(), key.1.clone(), 0.0));
+            next
+        });
+        let to_mesh = pl.world.inverse() * DMat4::from_translation(offset);
+        // The mesh's boxes must hold, for this instance: the f32 rounding of its placed
+        // corners moved back into the mesh's space, and the rounding of the ray's move there
+        // (from where it enters the bounds: the mesh's size times f32's epsilon, with room).
+        let render_reach =
+            Vec3::from(pass.bounds.min).abs().max(Vec3::from(pass.bounds.max).abs()).max_element();
+        let inverse_norm = {
+            let m = glam::DMat3::from_mat4(to_mesh).transpose();
+            [m.x_axis, m.y_axis, m.z_axis].iter().map(|r| r.abs().element_sum()).fold(0.0, f64::max)
+        };
+        let pad = 4.0 * f32::EPSILON as f64 * render_reach as f64 * inverse_norm;
+        let g = &mut meshes[mesh as usize];
+        g.2 = g.2.max(pad);
+        placed.push(Placed {
+            mesh,
+            placing: Placing::new(pl.world),
+            to_mesh,
+            materials: pl.materials.clone(),
+            instance: pl.instance,
+            bounds: pass.bounds,
+        });
+    }
+    if placed.is_empty() {
+        return (None, kept_triangles);
+    }
+    let meshes: Vec<StoredMesh> =
+        meshes.into_par_iter().map(|(prims, dropped, pad)| stored(prims, &dropped, pad)).collect();
+    let boxes: Vec<Aabb> = placed.iter().map(|p| p.bounds).collect();
+    let mut tlas = obvhs::bvh2::builder::build_bvh2(&boxes, bvh_params(), &mut Duration::default());
+    cover_depth(&mut tlas);
+    (Some(InstancedScene { meshes, placed, tlas, offset }), kept_triangles)
+}
+
+/// One instance's pass over its triangles: the flattened build's rules, in its order.
+fn pass(p: &Placement, offset: DVec3) -> Pass {
+    let placing = Placing::new(p.world);
+    let mut tally = PrecisionTally::default();
+    let (mut dropped, mut kept, mut bounds) = (Vec::new(), 0u64, Aabb::empty());
+    let mut local = 0u32;
+    for data in p.primitives.iter() {
+        for &c in &data.corners {
+            let c = placing.corners(c);
+            let w = c.map(|i| placing.position(data.positions[i as usize]));
+            // The loader counts zero-area triangles before the build sees the rest.
+            let keep = if is_degenerate(w) {
+                tally.zero_area += 1;
+                false
+            } else {
+                tally.keep(w, offset).is_some()
+            };
+            if keep {
+                kept += 1;
+                for v in w {
+                    bounds.extend(Vec3A::from((v - offset).as_vec3()));
+                }
+            } else {
+                dropped.push(local);
+            }
+            local += 1;
+        }
+    }
+    Pass { dropped, kept, bounds, tally }
+}
+
+/// A mesh's tree over the triangles not `dropped`, in its own space, every box grown by
+/// `pad` plus the rounding of the ray's move (f32's epsilon times the mesh's size, 32-fold).
+fn stored(
+    primitives: Arc<Vec<crate::geometry::instances::PrimitiveData>>,
+    dropped: &[u32],
+    pad: f64,
+) -> StoredMesh {
+    let mut slots = Vec::new();
+    let mut tris = Vec::new();
+    let mut magnitude = 0.0f32;
+    let mut local = 0u32;
+    let mut skip = dropped.iter().peekable();
+    for (pi, data) in primitives.iter().enumerate() {
+        for (k, c) in data.corners.iter().enumerate() {
+            if skip.peek() == Some(&&local) {
+                skip.next();
+            } else {
+                let v = c.map(|i| Vec3A::from(data.positions[i as usize]));
+                magnitude = v.iter().fold(magnitude, |m, p| m.max(p.abs().max_element()));
+                tris.push(Triangle { v0: v[0], v1: v[1], v2: v[2] });
+                slots.push([pi as u32, k as u32, local]);
+            }
+            local += 1;
+        }
+    }
+    let mut bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, bvh_params(), &mut Duration::default());
+    cover_depth(&mut bvh);
+    let slots = bvh.primitive_indices.iter().map(|&i| slots[i as usize]).collect();
+    let grow = (pad + 32.0 * f32::EPSILON as f64 * magnitude as f64) as f32;
+    for n in &mut bvh.nodes {
+        n.aabb.min -= Vec3A::splat(grow);
+        n.aabb.max += Vec3A::splat(grow);
+    }
+    StoredMesh { primitives, slots, bvh }
+}
