@@ -349,3 +349,20 @@ fn metal_rough_spheres_kept_answers_as_flattened() {
     let hits = same_answers(&flat, &kept, 20_000, 0.05);
     assert!(hits > 2_000, "{hits} hits");
 }
+
+/// A node whose transform flattens its mesh (a zero scale) is an error naming the node.
+#[test]
+fn a_singular_node_transform_is_an_error_naming_the_node() {
+    let dir = TempDir::new("instances-singular");
+    let mut b = GltfBuilder::new();
+    let pos = b.positions(&[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    let mesh = b.mesh(vec![primitive(&[("POSITION", pos)], None, TRIANGLES, None)]);
+    let ok = b.node(json!({"mesh": mesh}));
+    let flat = b.node(json!({"mesh": mesh, "scale": [1.0, 0.0, 1.0]}));
+    let sc = b.scene(&[ok, flat]);
+    b.set_default_scene(sc);
+    b.write(&dir.path, "field");
+    let err = load(&dir, None).err().expect("a zero scale is refused");
+    assert_eq!((err.file.clone(), err.key.as_str()), (dir.join("field.gltf"), "nodes[1]"), "{err}");
+    assert!(err.to_string().contains("singular"), "{err}");
+}

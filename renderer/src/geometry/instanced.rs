@@ -28,6 +28,9 @@ pub struct StoredMesh {
     /// Per leaf slot (tree order): the primitive, the triangle's index in it, and its index
     /// in the mesh.
     pub slots: Vec<[u32; 3]>,
+    /// Per leaf slot: the triangle's corners in the file's winding, f64 (read by every test:
+    /// one load instead of three dependent ones, no conversion).
+    pub points: Vec<[DVec3; 3]>,
     pub bvh: Bvh2,
 }
 
@@ -65,16 +68,24 @@ pub struct PlacedTriangle {
 }
 
 impl InstancedScene {
-    /// The triangle at `slot` of `p`'s mesh tree, in render space: the flattened scene's bits.
+    /// The triangle at `slot` of `p`'s mesh tree, in render space: the flattened scene's
+    /// bits ([`Placing::position`]'s arithmetic on the same f64 corners, less the offset).
     #[inline(always)]
+    pub fn render_triangle(&self, p: &Placed, slot: usize) -> Triangle {
+        let mut c = self.meshes[p.mesh as usize].points[slot];
+        if p.placing.mirrored() {
+            c.swap(1, 2);
+        }
+        let v = c.map(|x| Vec3A::from((p.placing.point(x) - self.offset).as_vec3()));
+        Triangle { v0: v[0], v1: v[1], v2: v[2] }
+    }
+
+    /// [`Self::render_triangle`] with the primitive and the corners' indices (for shading).
     pub fn triangle(&self, p: &Placed, slot: usize) -> PlacedTriangle {
         let mesh = &self.meshes[p.mesh as usize];
         let [prim, k, _] = mesh.slots[slot];
-        let data = &mesh.primitives[prim as usize];
-        let corners = p.placing.corners(data.corners[k as usize]);
-        let v = corners
-            .map(|i| Vec3A::from((p.placing.position(data.positions[i as usize]) - self.offset).as_vec3()));
-        PlacedTriangle { tri: Triangle { v0: v[0], v1: v[1], v2: v[2] }, primitive: prim, corners }
+        let corners = p.placing.corners(mesh.primitives[prim as usize].corners[k as usize]);
+        PlacedTriangle { tri: self.render_triangle(p, slot), primitive: prim, corners }
     }
 
     /// The texture coordinates at barycentrics (b1, b2) of a placed triangle.

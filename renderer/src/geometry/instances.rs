@@ -7,7 +7,7 @@
 //! of once per copy: one transform maps equal positions to equal positions, so a mesh's
 //! welded vertices are welded in every instance of it.
 
-use glam::{DMat3, DMat4, DVec3, Vec3};
+use glam::{DAffine3, DMat3, DMat4, DVec3, Vec3};
 use std::sync::Arc;
 
 /// A mesh's triangles as welded vertex ids in its own space: corners at bit-identical
@@ -101,6 +101,9 @@ pub struct Placement {
 #[derive(Debug, Clone, Copy)]
 pub struct Placing {
     world: DMat4,
+    /// `world` as an affine map: the same products and sums in the same order as
+    /// `DMat4::transform_point3` (so the same bits), without its fourth lane.
+    affine: DAffine3,
     normal_from_file: DMat3,
     mirrored: bool,
 }
@@ -108,11 +111,18 @@ pub struct Placing {
 impl Placing {
     pub fn new(world: DMat4) -> Placing {
         let normal_from_file = DMat3::from_mat4(world).inverse().transpose();
-        Placing { world, normal_from_file, mirrored: world.determinant() < 0.0 }
+        let affine = DAffine3::from_mat4(world);
+        Placing { world, affine, normal_from_file, mirrored: world.determinant() < 0.0 }
     }
 
     pub fn world(&self) -> DMat4 {
         self.world
+    }
+
+    /// Whether the transform mirrors (its triangles' last two corners swapped).
+    #[inline(always)]
+    pub fn mirrored(&self) -> bool {
+        self.mirrored
     }
 
     /// A triangle's corners in the order that keeps its front face: the last two swapped
@@ -128,7 +138,13 @@ impl Placing {
     /// A file position in world space (f64).
     #[inline(always)]
     pub fn position(&self, p: [f32; 3]) -> DVec3 {
-        self.world.transform_point3(DVec3::from(p.map(f64::from)))
+        self.point(DVec3::from(p.map(f64::from)))
+    }
+
+    /// [`Self::position`] of a file position already in f64.
+    #[inline(always)]
+    pub fn point(&self, p: DVec3) -> DVec3 {
+        self.affine.transform_point3(p)
     }
 
     /// The corners' normals in world space (unit, f32), or `None` where the file has none

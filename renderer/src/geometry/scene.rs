@@ -238,11 +238,11 @@ impl Scene {
         tmax: f32,
     ) -> f32 {
         let p = &inst.placed[placed];
-        let t = inst.triangle(p, slot);
-        match ray.intersect(&t.tri, tmax) {
+        match ray.intersect(&inst.render_triangle(p, slot), tmax) {
             None => f32::INFINITY,
             Some((d, b1, b2)) => {
                 if self.any_alpha_test {
+                    let t = inst.triangle(p, slot);
                     let m = &self.materials[p.materials[t.primitive as usize] as usize];
                     if m.is_cutout(inst.uv_at(p, &t, b1, b2), &self.textures) {
                         return f32::INFINITY;
@@ -281,7 +281,7 @@ impl Scene {
     /// The render-space triangle a hit lies on.
     pub fn hit_triangle(&self, hit: &SurfaceHit) -> Triangle {
         match (hit.kept, &self.instanced) {
-            (Some(p), Some(inst)) => inst.triangle(&inst.placed[p as usize], hit.triangle as usize).tri,
+            (Some(p), Some(inst)) => inst.render_triangle(&inst.placed[p as usize], hit.triangle as usize),
             _ => self.triangles[hit.triangle as usize],
         }
     }

@@ -431,7 +431,7 @@ fn kept_clear(inst: &InstancedScene, p: &Placed, shaft: &Shaft) -> bool {
             continue;
         }
         for slot in n.first_index as usize..(n.first_index + n.prim_count) as usize {
-            let t = inst.triangle(p, slot).tri;
+            let t = inst.render_triangle(p, slot);
             if !shaft.triangle_outside(t.v0, t.v1, t.v2) {
                 return false;
             }

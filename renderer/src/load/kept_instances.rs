@@ -142,11 +142,18 @@ fn stored(
     }
     let mut bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, bvh_params(), &mut Duration::default());
     cover_depth(&mut bvh);
-    let slots = bvh.primitive_indices.iter().map(|&i| slots[i as usize]).collect();
+    let slots: Vec<[u32; 3]> = bvh.primitive_indices.iter().map(|&i| slots[i as usize]).collect();
+    let points = slots
+        .iter()
+        .map(|&[pi, k, _]| {
+            let data = &primitives[pi as usize];
+            data.corners[k as usize].map(|i| DVec3::from(data.positions[i as usize].map(f64::from)))
+        })
+        .collect();
     let grow = (pad + 32.0 * f32::EPSILON as f64 * magnitude as f64) as f32;
     for n in &mut bvh.nodes {
         n.aabb.min -= Vec3A::splat(grow);
         n.aabb.max += Vec3A::splat(grow);
     }
-    StoredMesh { primitives, slots, bvh }
+    StoredMesh { primitives, slots, points, bvh }
 }

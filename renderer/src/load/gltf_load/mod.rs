@@ -394,6 +394,14 @@ fn load_nodes(
         if !world.is_finite() {
             return Err(fail(&format!("nodes[{}]", node.index()), "transform is not finite".into()));
         }
+        // A mesh under a singular transform would lose all its area (every triangle dropped,
+        // or a placement with no inverse for the ray's move into its space).
+        if node.mesh().is_some() && world.determinant() == 0.0 {
+            return Err(fail(
+                &format!("nodes[{}]", node.index()),
+                "transform is singular (a zero scale): its mesh would have no area".into(),
+            ));
+        }
         if camera.is_none()
             && let Some(cam) = node.camera()
             && let gltf::camera::Projection::Perspective(p) = cam.projection()
