@@ -366,3 +366,136 @@ fn a_singular_node_transform_is_an_error_naming_the_node() {
     assert_eq!((err.file.clone(), err.key.as_str()), (dir.join("field.gltf"), "nodes[1]"), "{err}");
     assert!(err.to_string().contains("singular"), "{err}");
 }
+
+// ---------------------------------------------------------------------------------------
+// Kept instances at the edges (cases a review found)
+// ---------------------------------------------------------------------------------------
+
+/// A 2 x 2 quad at y = 0 in its mesh's space.
+fn quad_mesh(b: &mut GltfBuilder) -> (usize, usize) {
+    let pos = b.positions(&[[-1.0, 0.0, -1.0], [1.0, 0.0, -1.0], [1.0, 0.0, 1.0], [-1.0, 0.0, 1.0]]);
+    (pos, b.indices_u32(&[0, 2, 1, 0, 3, 2]))
+}
+
+fn write_nodes(dir: &TempDir, mut b: GltfBuilder, nodes: Vec<serde_json::Value>) -> (Scene, Scene) {
+    let placed: Vec<usize> = nodes.into_iter().map(|n| b.node(n)).collect();
+    let sc = b.scene(&placed);
+    b.set_default_scene(sc);
+    b.write(&dir.path, "field");
+    load_both(&dir.path, &format!("[[model]]\npath = \"field.gltf\"\n{CAMERA_AND_LIGHT}"))
+}
+
+fn down_from(o: glam::Vec3) -> obvhs::ray::Ray {
+    let d = glam::Vec3::new(0.05, -1.0, 0.03).normalize();
+    obvhs::ray::Ray::new_inf(o.into(), d.into())
+}
+
+/// A segment ending exactly at a hit: no hit, as flattened (obvhs counts t < tmax only).
+#[test]
+fn a_hit_at_exactly_the_segment_end_is_none_kept_or_flattened() {
+    let dir = TempDir::new("instances-tmax");
+    let mut b = GltfBuilder::new();
+    let (pos, ind) = quad_mesh(&mut b);
+    let mesh = b.mesh(vec![primitive(&[("POSITION", pos)], Some(ind), TRIANGLES, None)]);
+    let (flat, kept) = write_nodes(
+        &dir,
+        b,
+        vec![json!({"mesh": mesh}), json!({"mesh": mesh, "translation": [5.0, 0.0, 0.0]})],
+    );
+    let ray = down_from(glam::Vec3::new(0.0, -25.0, -60.0));
+    let t = flat.intersect(ray).expect("the ray meets the quad").t;
+    let capped = obvhs::ray::Ray { tmax: t, ..ray };
+    assert_eq!(flat.intersect(capped).map(|h| h.t), kept.intersect(capped).map(|h| h.t));
+    assert_eq!(flat.occluded(capped), kept.occluded(capped));
+    assert!(!kept.occluded(capped) && kept.intersect(ray).map(|h| h.t) == Some(t));
+}
+
+/// Two meshes sharing POSITION and indices but not NORMAL: each keeps its own normals.
+#[test]
+fn meshes_sharing_positions_keep_their_own_normals() {
+    let dir = TempDir::new("instances-normals");
+    let mut b = GltfBuilder::new();
+    let (pos, ind) = quad_mesh(&mut b);
+    let up = b.normals(&[[0.0, 1.0, 0.0]; 4]);
+    let tilt = b.normals(&[[0.6, 0.8, 0.0]; 4]);
+    let m1 = b.mesh(vec![primitive(&[("POSITION", pos), ("NORMAL", up)], Some(ind), TRIANGLES, None)]);
+    let m2 = b.mesh(vec![primitive(&[("POSITION", pos), ("NORMAL", tilt)], Some(ind), TRIANGLES, None)]);
+    let nodes = vec![json!({"mesh": m1, "translation": [-5.0, 0.0, 0.0]}), json!({"mesh": m2})];
+    let (flat, kept) = write_nodes(&dir, b, nodes);
+    let ray = down_from(glam::Vec3::new(0.0, -25.0, -60.0));
+    let (a, k) = (flat.intersect(ray).expect("a hit"), kept.intersect(ray).expect("a hit"));
+    assert_eq!(a.point, k.point);
+    assert!((a.point.n_shading.x.abs() - 0.6).abs() < 1e-6, "the tilted normal: {}", a.point.n_shading);
+}
+
+/// A mesh whose first instance keeps no triangle (lost to f32): unique triangles counted
+/// from that instance, as flattened (none), and the same warnings.
+#[test]
+fn unique_triangles_count_the_first_instance_kept_or_flattened() {
+    let dir = TempDir::new("instances-unique");
+    let mut b = GltfBuilder::new();
+    let (pos, ind) = quad_mesh(&mut b);
+    let mesh = b.mesh(vec![primitive(&[("POSITION", pos)], Some(ind), TRIANGLES, None)]);
+    let nodes = vec![json!({"mesh": mesh, "scale": [1e-12, 1e-12, 1e-12]}), json!({"mesh": mesh})];
+    let (flat, kept) = write_nodes(&dir, b, nodes);
+    assert_eq!((flat.unique_triangles(), flat.stats.triangles), (0, 2));
+    assert_eq!(kept.unique_triangles(), flat.unique_triangles());
+    assert_eq!(kept.warnings, flat.warnings);
+}
+
+/// Rays along an axis (direction components 0 or 1e-6) just beside the edges of a 100x
+/// instance's leaf boxes: obvhs clamps a direction component under f32's epsilon, which a
+/// direction moved into a shrunk mesh space reaches 100x sooner. The kept walk uses a unit
+/// direction there: it finds every hit the flattened walk finds, at the same t. (The
+/// flattened walk itself misses a few such rays that start within microns of a box face,
+/// where the clamp ends the ray's stay in the slab early; counted, not asserted.)
+#[test]
+fn rays_along_an_axis_meet_a_scaled_instance_kept_as_flattened() {
+    let dir = TempDir::new("instances-axis");
+    let mut b = GltfBuilder::new();
+    let cells = 16u32;
+    let (mut p, mut idx) = (Vec::new(), Vec::new());
+    for i in 0..=cells {
+        for j in 0..=cells {
+            p.push([i as f32 / cells as f32, 0.0, j as f32 / cells as f32]);
+        }
+    }
+    let at = |i: u32, j: u32| i * (cells + 1) + j;
+    for i in 0..cells {
+        for j in 0..cells {
+            idx.extend([at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i + 1, j)]);
+        }
+    }
+    let base = p.len() as u32; // a post at the corner: the bounds reach y = 1
+    p.extend([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+    idx.extend([base, base + 1, base + 2]);
+    let (pos, ind) = (b.positions(&p), b.indices_u32(&idx));
+    let mesh = b.mesh(vec![primitive(&[("POSITION", pos)], Some(ind), TRIANGLES, None)]);
+    let (flat, kept) = write_nodes(&dir, b, vec![json!({"mesh": mesh, "scale": [100.0, 100.0, 100.0]})]);
+    let (mut total, mut both, mut flat_missed) = (0, 0, 0);
+    for dx in [0.0f32, 1e-6, -1e-6] {
+        let d = glam::Vec3::new(dx, -1.0, 0.0).normalize();
+        for k in 1..cells {
+            let edge = k as f32 * 100.0 / cells as f32;
+            for m in 1..=100 {
+                for x in [edge - m as f32 * 1e-5, edge + m as f32 * 1e-5] {
+                    let o = glam::Vec3::new(x, 200.0, -60.0 + 31.3);
+                    let ray = obvhs::ray::Ray::new_inf(o.into(), d.into());
+                    let (a, k) = (flat.intersect(ray).map(|h| h.t), kept.intersect(ray).map(|h| h.t));
+                    total += 1;
+                    match (a, k) {
+                        (Some(a), Some(k)) => {
+                            assert_eq!(a, k, "x {x}, d.x {dx:e}");
+                            both += 1;
+                        }
+                        (Some(a), None) => panic!("kept missed the hit at {a}: x {x}, d.x {dx:e}"),
+                        (None, Some(_)) => flat_missed += 1,
+                        (None, None) => {}
+                    }
+                }
+            }
+        }
+    }
+    eprintln!("{total} rays: {both} hit both ways; the flattened walk missed {flat_missed}");
+    assert!(both > total * 9 / 10, "the rays must meet the floor: {both} of {total}");
+}

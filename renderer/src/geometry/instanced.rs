@@ -46,6 +46,9 @@ pub struct Placed {
     pub instance: u32,
     /// Render-space bounds of its triangles.
     pub bounds: Aabb,
+    /// Its transform has no usable inverse (nearly singular): its triangles are all tested,
+    /// without its mesh's tree.
+    pub brute: bool,
 }
 
 /// The kept instances of a scene (see the module doc).
@@ -120,24 +123,45 @@ impl InstancedScene {
             let pi = self.tlas.primitive_indices[leaf] as usize;
             let p = &self.placed[pi];
             let Some(start) = entry(&p.bounds, r) else { return f32::INFINITY };
-            // The ray moved into the mesh's space from where it enters the instance's bounds:
-            // the move's rounding is then bounded by the mesh's size, not the ray's length.
-            let (o, d) = (Vec3::from(r.origin).as_dvec3(), Vec3::from(r.direction).as_dvec3());
-            let o_mesh = p.to_mesh.transform_point3(o + start * d);
-            let d_mesh = p.to_mesh.transform_vector3(d);
-            let (lo, hi) = ((r.tmin as f64 - start).max(0.0) as f32, (r.tmax as f64 - start) as f32);
-            let local = Ray::new(o_mesh.as_vec3().into(), d_mesh.as_vec3().into(), lo, hi);
             let mut found = f32::INFINITY;
             let world_tmax = r.tmax;
             // The test takes the world ray's own range, not the moved ray's (its f32 rounding
-            // could let a hit just past the end of a segment through).
-            let mut inner = |_: &Ray, slot: usize| -> f32 {
-                let t = test(pi, slot, found.min(world_tmax));
-                if t < found {
+            // could let a hit just past the end of a segment through), and a hit counts only
+            // strictly inside it, as in obvhs's walk of the flattened scene.
+            let mut consider = |slot: usize| -> f32 {
+                let limit = found.min(world_tmax);
+                let t = test(pi, slot, limit);
+                if t < limit {
                     found = t;
                     best = Some((t, pi, slot));
+                    t
+                } else {
+                    f32::INFINITY
                 }
-                if t.is_finite() { (t as f64 - start) as f32 } else { f32::INFINITY }
+            };
+            if p.brute {
+                for slot in 0..self.meshes[p.mesh as usize].slots.len() {
+                    if consider(slot).is_finite() && any {
+                        break;
+                    }
+                }
+                return found;
+            }
+            // The ray moved into the mesh's space from where it enters the instance's bounds
+            // (the move's rounding is then bounded by the mesh's size, not the ray's length),
+            // with a unit direction there: obvhs clamps a direction component under f32's
+            // epsilon, which a direction shrunk by a large scale reaches long before a world
+            // one (rays along an axis missed a 100x instance's floor).
+            let (o, d) = (Vec3::from(r.origin).as_dvec3(), Vec3::from(r.direction).as_dvec3());
+            let o_mesh = p.to_mesh.transform_point3(o + start * d);
+            let d_mesh = p.to_mesh.transform_vector3(d);
+            let len = d_mesh.length();
+            let (lo, hi) = ((r.tmin as f64 - start).max(0.0) * len, (r.tmax as f64 - start) * len);
+            let local =
+                Ray::new(o_mesh.as_vec3().into(), (d_mesh / len).as_vec3().into(), lo as f32, hi as f32);
+            let mut inner = |_: &Ray, slot: usize| -> f32 {
+                let t = consider(slot);
+                if t.is_finite() { ((t as f64 - start) * len) as f32 } else { f32::INFINITY }
             };
             let bvh = &self.meshes[p.mesh as usize].bvh;
             if any {

@@ -146,17 +146,19 @@ impl Scene {
             o.is_loose() || first[self.instances[o.instance as usize].mesh as usize] == o.instance
         };
         let flat = self.origins.iter().filter(|o| counted(o)).count() as u64;
-        // Kept instances: each mesh's tree over what its first instance keeps.
+        // Kept instances: the triangles its mesh's first instance keeps (none if that one
+        // keeps none, as flattened).
         let kept = self.instanced.as_ref().map_or(0, |inst| {
-            let mut seen = vec![false; self.meshes.len()];
-            let mut n = 0u64;
+            let mut placed_of = vec![None; self.instances.len()];
             for p in &inst.placed {
-                let mesh = self.instances[p.instance as usize].mesh as usize;
-                if !std::mem::replace(&mut seen[mesh], true) {
-                    n += inst.meshes[p.mesh as usize].slots.len() as u64;
-                }
+                placed_of[p.instance as usize] = Some(p.mesh);
             }
-            n
+            first
+                .iter()
+                .filter(|&&i| i != u32::MAX)
+                .filter_map(|&i| placed_of[i as usize])
+                .map(|m| inst.meshes[m as usize].slots.len() as u64)
+                .sum::<u64>()
         });
         flat + kept
     }

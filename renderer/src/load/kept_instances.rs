@@ -62,8 +62,13 @@ pub(super) fn build(
             [m.x_axis, m.y_axis, m.z_axis].iter().map(|r| r.abs().element_sum()).fold(0.0, f64::max)
         };
         let pad = 4.0 * f32::EPSILON as f64 * render_reach as f64 * inverse_norm;
-        let g = &mut meshes[mesh as usize];
-        g.2 = g.2.max(pad);
+        // A nearly singular transform (its inverse past 1e15, or not finite) walks no tree: its
+        // triangles are all tested.
+        let brute = !(to_mesh.is_finite() && pad.is_finite() && inverse_norm < 1e15);
+        if !brute {
+            let g = &mut meshes[mesh as usize];
+            g.2 = g.2.max(pad);
+        }
         placed.push(Placed {
             mesh,
             placing: Placing::new(pl.world),
@@ -71,6 +76,7 @@ pub(super) fn build(
             materials: pl.materials.clone(),
             instance: pl.instance,
             bounds: pass.bounds,
+            brute,
         });
     }
     if placed.is_empty() {

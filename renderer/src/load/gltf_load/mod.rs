@@ -355,6 +355,10 @@ fn load_buffers(
 /// A mesh's identity at load: (POSITION accessor, indices accessor, mode) per primitive.
 type MeshKey = Vec<(usize, Option<usize>, u32)>;
 
+/// What a mesh's read primitives depend on: its [`MeshKey`], and per primitive its NORMAL
+/// accessor and the TEXCOORD accessor its material reads.
+type ReadKey = (MeshKey, Vec<(Option<usize>, Option<usize>)>);
+
 /// Loads the meshes of every node of `scene`, each under its world transform (the file's
 /// node transforms after `model_from_file`). Returns the first perspective camera met.
 fn load_nodes(
@@ -375,7 +379,11 @@ fn load_nodes(
     // for meshes already met.
     let mut meshes: HashMap<Vec<(usize, Option<usize>, u32)>, u32> = HashMap::new();
     // The same key -> the mesh's primitives, for placements kept unflattened.
-    let mut kept: HashMap<MeshKey, std::sync::Arc<Vec<PrimitiveData>>> = HashMap::new();
+    #[allow(clippy::type_complexity)]
+    let mut kept: HashMap<
+        (MeshKey, Vec<(Option<usize>, Option<usize>)>),
+        std::sync::Arc<Vec<PrimitiveData>>,
+    > = HashMap::new();
     while let Some((node, parent, depth)) = stack.pop() {
         if !visited.insert(node.index()) {
             return Err(fail(
@@ -428,7 +436,9 @@ fn load_nodes(
             let mesh_id = known.unwrap_or(geometry.meshes.len() as u32);
             // Kept instances read a mesh's primitives once (10,000 boulders' nodes would read
             // 82k triangles each).
-            let cached = if geometry.keep_instances { kept.get(&key).cloned() } else { None };
+            // Their normals and texture coordinates too: meshes sharing positions may differ there.
+            let read_key: ReadKey = (key.clone(), mesh.primitives().map(|p| attribute_key(&p)).collect());
+            let cached = if geometry.keep_instances { kept.get(&read_key).cloned() } else { None };
             let mut read = Vec::new();
             if cached.is_none() {
                 for prim in mesh.primitives() {
@@ -447,7 +457,7 @@ fn load_nodes(
                     Some(d) => d,
                     None => {
                         let d = std::sync::Arc::new(read.into_iter().map(|r| r.data).collect::<Vec<_>>());
-                        kept.insert(key, d.clone());
+                        kept.insert(read_key, d.clone());
                         d
                     }
                 };

@@ -43,6 +43,23 @@ pub(super) fn has_triangles(prim: &gltf::Primitive) -> bool {
     matches!(prim.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)
 }
 
+/// The texture coordinate set `material`'s base colour texture reads (KHR_texture_transform's
+/// override first), 0 without one.
+pub(super) fn uv_set(material: &gltf::Material) -> u32 {
+    material
+        .pbr_metallic_roughness()
+        .base_color_texture()
+        .map(|info| info.texture_transform().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord()))
+        .unwrap_or(0)
+}
+
+/// What a primitive's read data depends on beyond its positions, indices and mode: its
+/// NORMAL accessor and the TEXCOORD accessor its material reads.
+pub(super) fn attribute_key(prim: &gltf::Primitive) -> (Option<usize>, Option<usize>) {
+    let uvs = prim.get(&Semantic::TexCoords(uv_set(&prim.material()))).map(|a| a.index());
+    (prim.get(&Semantic::Normals).map(|a| a.index()), uvs)
+}
+
 /// The scene's index of `prim`'s material.
 pub(super) fn material_id(file: &FileContext, prim: &gltf::Primitive) -> u32 {
     match prim.material().index() {
@@ -66,11 +83,7 @@ pub(super) fn read_primitive<'a>(
     }
     let material = prim.material();
     let mat_id = material_id(file, prim);
-    let uv_set = material
-        .pbr_metallic_roughness()
-        .base_color_texture()
-        .map(|info| info.texture_transform().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord()))
-        .unwrap_or(0);
+    let uv_set = uv_set(&material);
 
     let vertices = read_vertices(prim, uv_set, buffers, &fail)?;
     let corners = triangle_corners(mode, &vertices.indices);
