@@ -16,6 +16,7 @@ pub const READERS: &[&str] = &[
     "silhouette::shared_scenes_agree_with_the_bvh",
     "silhouette::points_with_more_edges_than_the_counting_pays_for",
     "bench::a_changed_model_buffer_renders_the_truth_anew",
+    "instances::metal_rough_spheres_kept_answers_as_flattened",
 ];
 
 /// Where to read how to get the scenes.
