@@ -99,6 +99,19 @@ pub struct Scene {
     pub warnings: Vec<String>,
 }
 
+/// `ray` with its inverse direction as the box tests need it: obvhs's `Ray::new` clamps a
+/// component under f32's epsilon to 1/epsilon, so a ray along an axis that starts within
+/// microns of a box's face left that slab after (face - origin) x 8e6 and missed what lay
+/// beyond (found comparing kept instances with the flattened scene). Here only components
+/// under 1e-30 are clamped (to 1e30, never an infinity that could make 0 x inf a NaN).
+#[inline(always)]
+pub(crate) fn walkable(mut ray: Ray) -> Ray {
+    let inv = |c: f32| if c.abs() < 1e-30 { 1e30f32.copysign(c) } else { 1.0 / c };
+    let d = ray.direction;
+    ray.inv_direction = glam::Vec3A::new(inv(d.x), inv(d.y), inv(d.z));
+    ray
+}
+
 /// Whether a camera frame in render space makes a camera: a finite position, and a view
 /// direction and up vector that give a right vector in f32 (as [`Camera::from_frame`]
 /// computes it). The scene file checks its camera in f64; recentring on the models can put
@@ -290,6 +303,7 @@ impl Scene {
 
     /// Closest hit along `ray` (alpha test honoured).
     pub fn intersect(&self, ray: Ray) -> Option<SurfaceHit> {
+        let ray = walkable(ray);
         let mut hit = obvhs::ray::RayHit::none();
         let sheared = ShearedRay::new(&ray);
         let flat = self.bvh.as_ref().is_some_and(|bvh| {
@@ -374,6 +388,7 @@ impl Scene {
     #[inline]
     pub fn occluded(&self, ray: Ray) -> bool {
         crate::util::profile::count_ray();
+        let ray = walkable(ray);
         let sheared = ShearedRay::new(&ray);
         let flat = self.bvh.as_ref().is_some_and(|bvh| {
             !bvh.ray_traverse_miss(ray, |r, slot| self.hit_distance(&sheared, r.tmax, slot))
@@ -424,6 +439,7 @@ impl Scene {
         skip: impl Fn(usize) -> bool,
     ) -> bool {
         let Some(ray) = shadow_ray_from(origin, target, target_error, target_normal) else { return false };
+        let ray = walkable(ray);
         crate::util::profile::count_ray();
         let sheared = ShearedRay::new(&ray);
         let flat = self.bvh.as_ref().is_some_and(|bvh| {
