@@ -503,3 +503,32 @@ fn rays_along_an_axis_meet_a_scaled_instance_kept_as_flattened() {
 
     assert!(both > total * 9 / 10, "the rays must meet the floor: {both} of {total}");
 }
+
+/// Lights made from emissive rectangles (no `[[light]]`): a double-sided emissive quad placed
+/// by two nodes faces the scene's centre, which boxes placed far to one side move. Kept or
+/// flattened, the scene's bounds and so its lights are the same.
+#[test]
+fn lights_from_kept_emissive_instances_face_the_same_centre() {
+    let dir = TempDir::new("instances-emitters");
+    let mut b = GltfBuilder::new();
+    let glow = b.material(json!({"emissiveFactor": [1.0, 1.0, 1.0], "doubleSided": true}));
+    let (pos, ind) = quad_mesh(&mut b);
+    let lamp = b.mesh(vec![primitive(&[("POSITION", pos)], Some(ind), TRIANGLES, Some(glow))]);
+    let (pos, ind) = quad_mesh(&mut b);
+    let slab = b.mesh(vec![primitive(&[("POSITION", pos)], Some(ind), TRIANGLES, None)]);
+    let mut nodes = vec![
+        json!({"mesh": lamp, "translation": [0.0, 4.0, 0.0]}),
+        json!({"mesh": lamp, "translation": [3.0, 4.0, 0.0]}),
+    ];
+    nodes.extend((0..3).map(|k| json!({"mesh": slab, "translation": [40.0 + k as f64, -3.0, 5.0]})));
+    let placed: Vec<usize> = nodes.into_iter().map(|n| b.node(n)).collect();
+    let sc = b.scene(&placed);
+    b.set_default_scene(sc);
+    b.write(&dir.path, "field");
+    let toml = "[[model]]\npath = \"field.gltf\"\n[camera]\nposition = [0.0, 2.0, 12.0]\nlook_at = [0.0, 0.0, 0.0]\n";
+    let (flat, kept) = load_both(&dir.path, toml);
+    assert_eq!(flat.lights.len(), 2, "the two placed lamps");
+    let key = |s: &Scene| s.lights.iter().map(|l| (l.center, l.u, l.v, l.normal)).collect::<Vec<_>>();
+    assert_eq!(key(&flat), key(&kept));
+    assert_eq!((flat.bounds_min, flat.bounds_max), (kept.bounds_min, kept.bounds_max));
+}

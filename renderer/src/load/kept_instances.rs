@@ -17,21 +17,30 @@ use std::time::Duration;
 
 /// What one instance keeps: the mesh indices of the triangles the flattened scene would drop
 /// (zero area, or lost to f32), its render-space bounds and largest coordinate, its tally.
-struct Pass {
+pub(super) struct Pass {
     dropped: Vec<u32>,
     kept: u64,
     bounds: Aabb,
     tally: PrecisionTally,
+    /// World-space (f64) bounds of its triangles of nonzero area, as the flattened scene's
+    /// bounds count them (before f32 drops any).
+    pub(super) world: (DVec3, DVec3),
+}
+
+/// Every placement's pass, in parallel, in order.
+pub(super) fn passes(placements: &[Placement], offset: DVec3) -> Vec<Pass> {
+    placements.par_iter().map(|p| pass(p, offset)).collect()
 }
 
 /// The kept instances and how many triangles they hold (flattened), with `tally` counting
 /// their drops as the flattened scene's build would, instance by instance in order.
+/// `passes` are the placements' own ([`passes`]).
 pub(super) fn build(
     placements: Vec<Placement>,
+    passes: Vec<Pass>,
     offset: DVec3,
     tally: &mut PrecisionTally,
 ) -> (Option<InstancedScene>, u64) {
-    let passes: Vec<Pass> = placements.par_iter().map(|p| pass(p, offset)).collect();
     let mut kept_triangles = 0;
     for p in &passes {
         tally.merge(&p.tally);
@@ -95,6 +104,7 @@ fn pass(p: &Placement, offset: DVec3) -> Pass {
     let placing = Placing::new(p.world);
     let mut tally = PrecisionTally::default();
     let (mut dropped, mut kept, mut bounds) = (Vec::new(), 0u64, Aabb::empty());
+    let mut world = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     let mut local = 0u32;
     for data in p.primitives.iter() {
         for &c in &data.corners {
@@ -105,6 +115,9 @@ fn pass(p: &Placement, offset: DVec3) -> Pass {
                 tally.zero_area += 1;
                 false
             } else {
+                for v in w {
+                    world = (world.0.min(v), world.1.max(v));
+                }
                 tally.keep(w, offset).is_some()
             };
             if keep {
@@ -118,7 +131,7 @@ fn pass(p: &Placement, offset: DVec3) -> Pass {
             local += 1;
         }
     }
-    Pass { dropped, kept, bounds, tally }
+    Pass { dropped, kept, bounds, tally, world }
 }
 
 /// A mesh's tree over the triangles not `dropped`, in its own space, every box grown by

@@ -64,7 +64,13 @@ impl Scene {
         // Render space is centred on the camera (world, f64): f32 is most precise where the
         // camera looks, and geometry far away cannot cost the visible part its precision.
         let world_offset = camera_world_position(file, gltf_camera.as_ref()).unwrap_or(DVec3::ZERO);
-        let (lo, hi) = world_bounds(&geometry.triangles);
+        // Kept instances' passes now: their world bounds place the lights as the flattened
+        // scene's would, and the build reuses them.
+        let passes = super::kept_instances::passes(&geometry.placements, world_offset);
+        let (mut lo, mut hi) = world_bounds(&geometry.triangles);
+        for p in &passes {
+            (lo, hi) = (lo.min(p.world.0), hi.max(p.world.1));
+        }
         let mut warnings = std::mem::take(&mut geometry.warnings);
         let extent = if lo.x <= hi.x { (hi - lo).length() } else { 0.0 };
         let lights = scene_lights(
@@ -79,7 +85,7 @@ impl Scene {
         let load = t0.elapsed();
         drop(load_span);
 
-        let mut scene = Self::build(geometry, lights, camera, world_offset, load);
+        let mut scene = Self::build_with(geometry, passes, lights, camera, world_offset, load);
         warnings.append(&mut scene.warnings);
         scene.warnings = warnings;
         Ok(scene)
@@ -91,6 +97,19 @@ impl Scene {
     /// render space are dropped, counted and named in `warnings`.
     pub fn build(
         geometry: Geometry,
+        lights: Vec<RectLight>,
+        camera: Camera,
+        world_offset: DVec3,
+        load: Duration,
+    ) -> Scene {
+        let passes = super::kept_instances::passes(&geometry.placements, world_offset);
+        Self::build_with(geometry, passes, lights, camera, world_offset, load)
+    }
+
+    /// [`Scene::build`] with the kept instances' passes already made.
+    fn build_with(
+        geometry: Geometry,
+        passes: Vec<super::kept_instances::Pass>,
         lights: Vec<RectLight>,
         camera: Camera,
         world_offset: DVec3,
@@ -112,7 +131,7 @@ impl Scene {
         let mut precision = PrecisionTally { zero_area: degenerate, ..Default::default() };
         // Kept instances first: the loader placed them before any quad or soup.
         let (instanced, kept_triangles) =
-            super::kept_instances::build(placements, world_offset, &mut precision);
+            super::kept_instances::build(placements, passes, world_offset, &mut precision);
         for s in &source {
             let Some(face) = precision.keep(s.p, world_offset) else { continue };
             let p = s.p.map(|p| (p - world_offset).as_vec3());
