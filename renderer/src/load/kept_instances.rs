@@ -2,7 +2,7 @@
 //! triangles each instance keeps (the flattened scene's rules, counted in the same tally),
 //! one tree per mesh and set of kept triangles, and the top tree over the instances.
 
-use super::scene_load::PrecisionTally;
+use super::precision_tally::PrecisionTally;
 use crate::geometry::instanced::{InstancedScene, Placed, StoredMesh};
 use crate::geometry::instances::{Placement, Placing};
 use crate::geometry::precision::is_degenerate;

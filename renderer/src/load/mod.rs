@@ -5,4 +5,5 @@
 pub mod config;
 pub mod gltf_load;
 mod kept_instances;
+mod precision_tally;
 pub mod scene_load;

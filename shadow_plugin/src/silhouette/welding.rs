@@ -10,7 +10,6 @@
 //! by sorting every corner took 89 ms, linking by sorting every side 68 ms; so, 17 ms and
 //! 21 ms (the edge set 157 -> 47 ms).
 
-use super::edges::EdgeSet;
 use glam::Vec3;
 use rayon::prelude::*;
 use renderer::Scene;
@@ -42,103 +41,101 @@ pub(super) fn unpack_side(p: u128) -> (u32, u32, u32, bool) {
     ((p >> 96) as u32, (p >> 64) as u32, (p >> 32) as u32, p as u32 != 0)
 }
 
-impl EdgeSet {
-    /// Fills `vertices` and `corners`: an instance's triangle takes its mesh's ids offset
-    /// by the instance's base; the meshes' boundary vertices and loose triangles' corners
-    /// are welded by bit-identical position (-0.0 and 0.0 are one), sorted with ties by id
-    /// so the ids are the same on every run.
-    pub(super) fn weld(&mut self, scene: &Scene) -> Welded {
-        let mut base = Vec::with_capacity(scene.instances.len());
-        let mut total = 0u64;
-        for inst in &scene.instances {
-            base.push(total as u32);
-            total += scene.meshes[inst.mesh as usize].vertices as u64;
-        }
-        // A loose corner's tag is total + its corner index (3 per triangle slot).
-        let corners = 3 * scene.triangles.len() as u64;
-        assert!(total + corners < u32::MAX as u64, "more vertices than u32 ids");
-        let total = total as u32;
-        // Each instance triangle's ids, then each id's position, in parallel: every triangle
-        // naming an id writes the same bits there (one transform of one file position), so
-        // the order of the writes cannot matter. (boulder-field, 8.2 M triangles: 240 ms on
-        // one thread.)
-        self.corners = scene
-            .origins
-            .par_iter()
-            .map(|o| {
-                if o.is_loose() {
-                    return [u32::MAX; 3];
-                }
-                let inst = scene.instances[o.instance as usize];
-                let mut c = scene.meshes[inst.mesh as usize].corners[o.local as usize];
-                if inst.mirrored {
-                    c.swap(1, 2); // as the loader swapped the triangle's corners
-                }
-                c.map(|i| base[o.instance as usize] + i)
-            })
-            .collect();
-        let bits: Vec<AtomicU32> =
-            (0..3 * total as usize).into_par_iter().map(|_| AtomicU32::new(f32::NAN.to_bits())).collect();
-        scene.triangles.par_iter().zip(&self.corners).for_each(|(tri, c)| {
-            if c[0] != u32::MAX {
-                for (k, v) in [tri.v0, tri.v1, tri.v2].into_iter().enumerate() {
-                    for (d, x) in Vec3::from(v).to_array().into_iter().enumerate() {
-                        bits[3 * c[k] as usize + d].store(x.to_bits(), Ordering::Relaxed);
-                    }
-                }
-            }
-        });
-        self.vertices = bits
-            .par_chunks(3)
-            .map(|v| Vec3::from_array([0, 1, 2].map(|d| f32::from_bits(v[d].load(Ordering::Relaxed)))))
-            .collect();
-        let mut keys = Vec::new();
-        for (slot, (tri, o)) in scene.triangles.iter().zip(&scene.origins).enumerate() {
-            if o.is_loose() {
-                // Tagged after every instance vertex: a run's first tag is an instance's
-                // vertex where it has one.
-                let p = [tri.v0, tri.v1, tri.v2].map(Vec3::from);
-                keys.extend((0..3).map(|k| position_key(p[k], total + (3 * slot + k) as u32)));
-            }
-        }
-        // The meshes' boundary vertices, each instance's that a kept triangle uses.
-        let boundaries: Vec<Vec<u32>> = scene.meshes.par_iter().map(boundary_vertices).collect();
-        for (i, inst) in scene.instances.iter().enumerate() {
-            for &v in &boundaries[inst.mesh as usize] {
-                let id = base[i] + v;
-                if !self.vertices[id as usize].is_nan() {
-                    keys.push(position_key(self.vertices[id as usize], id));
-                }
-            }
-        }
-        keys.par_sort_unstable();
-        let mut remap: Vec<u32> = (0..total).collect();
-        let mut canonical = 0u32;
-        for (n, &k) in keys.iter().enumerate() {
-            let tag = k as u32;
-            if n == 0 || keys[n - 1] >> 32 != k >> 32 {
-                canonical = if tag < total {
-                    tag
-                } else {
-                    let bits = [(k >> 96) as u32, (k >> 64) as u32, (k >> 32) as u32];
-                    self.vertices.push(Vec3::from_array(bits.map(f32::from_bits)));
-                    self.vertices.len() as u32 - 1
-                };
-            }
-            if tag < total {
-                remap[tag as usize] = canonical;
-            } else {
-                let corner = (tag - total) as usize;
-                self.corners[corner / 3][corner % 3] = canonical;
-            }
-        }
-        for (c, o) in self.corners.iter_mut().zip(&scene.origins) {
-            if !o.is_loose() {
-                *c = c.map(|i| remap[i as usize]);
-            }
-        }
-        Welded { base, remap }
+/// Fills the edge set's `vertices` and `corners`: an instance's triangle takes its mesh's ids offset
+/// by the instance's base; the meshes' boundary vertices and loose triangles' corners
+/// are welded by bit-identical position (-0.0 and 0.0 are one), sorted with ties by id
+/// so the ids are the same on every run.
+pub(super) fn weld(set_vertices: &mut Vec<Vec3>, set_corners: &mut Vec<[u32; 3]>, scene: &Scene) -> Welded {
+    let mut base = Vec::with_capacity(scene.instances.len());
+    let mut total = 0u64;
+    for inst in &scene.instances {
+        base.push(total as u32);
+        total += scene.meshes[inst.mesh as usize].vertices as u64;
     }
+    // A loose corner's tag is total + its corner index (3 per triangle slot).
+    let corners = 3 * scene.triangles.len() as u64;
+    assert!(total + corners < u32::MAX as u64, "more vertices than u32 ids");
+    let total = total as u32;
+    // Each instance triangle's ids, then each id's position, in parallel: every triangle
+    // naming an id writes the same bits there (one transform of one file position), so
+    // the order of the writes cannot matter. (boulder-field, 8.2 M triangles: 240 ms on
+    // one thread.)
+    *set_corners = scene
+        .origins
+        .par_iter()
+        .map(|o| {
+            if o.is_loose() {
+                return [u32::MAX; 3];
+            }
+            let inst = scene.instances[o.instance as usize];
+            let mut c = scene.meshes[inst.mesh as usize].corners[o.local as usize];
+            if inst.mirrored {
+                c.swap(1, 2); // as the loader swapped the triangle's corners
+            }
+            c.map(|i| base[o.instance as usize] + i)
+        })
+        .collect();
+    let bits: Vec<AtomicU32> =
+        (0..3 * total as usize).into_par_iter().map(|_| AtomicU32::new(f32::NAN.to_bits())).collect();
+    scene.triangles.par_iter().zip(&*set_corners).for_each(|(tri, c)| {
+        if c[0] != u32::MAX {
+            for (k, v) in [tri.v0, tri.v1, tri.v2].into_iter().enumerate() {
+                for (d, x) in Vec3::from(v).to_array().into_iter().enumerate() {
+                    bits[3 * c[k] as usize + d].store(x.to_bits(), Ordering::Relaxed);
+                }
+            }
+        }
+    });
+    *set_vertices = bits
+        .par_chunks(3)
+        .map(|v| Vec3::from_array([0, 1, 2].map(|d| f32::from_bits(v[d].load(Ordering::Relaxed)))))
+        .collect();
+    let mut keys = Vec::new();
+    for (slot, (tri, o)) in scene.triangles.iter().zip(&scene.origins).enumerate() {
+        if o.is_loose() {
+            // Tagged after every instance vertex: a run's first tag is an instance's
+            // vertex where it has one.
+            let p = [tri.v0, tri.v1, tri.v2].map(Vec3::from);
+            keys.extend((0..3).map(|k| position_key(p[k], total + (3 * slot + k) as u32)));
+        }
+    }
+    // The meshes' boundary vertices, each instance's that a kept triangle uses.
+    let boundaries: Vec<Vec<u32>> = scene.meshes.par_iter().map(boundary_vertices).collect();
+    for (i, inst) in scene.instances.iter().enumerate() {
+        for &v in &boundaries[inst.mesh as usize] {
+            let id = base[i] + v;
+            if !set_vertices[id as usize].is_nan() {
+                keys.push(position_key(set_vertices[id as usize], id));
+            }
+        }
+    }
+    keys.par_sort_unstable();
+    let mut remap: Vec<u32> = (0..total).collect();
+    let mut canonical = 0u32;
+    for (n, &k) in keys.iter().enumerate() {
+        let tag = k as u32;
+        if n == 0 || keys[n - 1] >> 32 != k >> 32 {
+            canonical = if tag < total {
+                tag
+            } else {
+                let bits = [(k >> 96) as u32, (k >> 64) as u32, (k >> 32) as u32];
+                set_vertices.push(Vec3::from_array(bits.map(f32::from_bits)));
+                set_vertices.len() as u32 - 1
+            };
+        }
+        if tag < total {
+            remap[tag as usize] = canonical;
+        } else {
+            let corner = (tag - total) as usize;
+            set_corners[corner / 3][corner % 3] = canonical;
+        }
+    }
+    for (c, o) in set_corners.iter_mut().zip(&scene.origins) {
+        if !o.is_loose() {
+            *c = c.map(|i| remap[i as usize]);
+        }
+    }
+    Welded { base, remap }
 }
 
 /// The vertices of a mesh's edges that have one triangle: where the mesh may meet another
