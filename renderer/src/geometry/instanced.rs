@@ -157,8 +157,12 @@ impl InstancedScene {
             let d_mesh = p.to_mesh.transform_vector3(d);
             let len = d_mesh.length();
             let (lo, hi) = ((r.tmin as f64 - start).max(0.0) * len, (r.tmax as f64 - start) * len);
-            let local =
-                Ray::new(o_mesh.as_vec3().into(), (d_mesh / len).as_vec3().into(), lo as f32, hi as f32);
+            let local = crate::geometry::watertight::walkable(Ray::new(
+                o_mesh.as_vec3().into(),
+                (d_mesh / len).as_vec3().into(),
+                lo as f32,
+                hi as f32,
+            ));
             let mut inner = |_: &Ray, slot: usize| -> f32 {
                 let t = consider(slot);
                 if t.is_finite() { ((t as f64 - start) * len) as f32 } else { f32::INFINITY }

@@ -9,7 +9,7 @@ use crate::geometry::light::RectLight;
 use crate::geometry::material::{Material, Texture};
 use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::{shadow_ray, shadow_ray_from};
-use crate::geometry::watertight::{HitPoint, ShearedRay};
+use crate::geometry::watertight::{HitPoint, ShearedRay, walkable};
 use glam::{DVec3, Vec2, Vec3};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::Ray, triangle::Triangle};
 use std::time::Duration;
@@ -97,19 +97,6 @@ pub struct Scene {
     pub stats: LoadStats,
     /// One line each: what the load dropped or could not keep precise (see `LoadStats`).
     pub warnings: Vec<String>,
-}
-
-/// `ray` with its inverse direction as the box tests need it: obvhs's `Ray::new` clamps a
-/// component under f32's epsilon to 1/epsilon, so a ray along an axis that starts within
-/// microns of a box's face left that slab after (face - origin) x 8e6 and missed what lay
-/// beyond (found comparing kept instances with the flattened scene). Here only components
-/// under 1e-30 are clamped (to 1e30, never an infinity that could make 0 x inf a NaN).
-#[inline(always)]
-pub(crate) fn walkable(mut ray: Ray) -> Ray {
-    let inv = |c: f32| if c.abs() < 1e-30 { 1e30f32.copysign(c) } else { 1.0 / c };
-    let d = ray.direction;
-    ray.inv_direction = glam::Vec3A::new(inv(d.x), inv(d.y), inv(d.z));
-    ray
 }
 
 /// Whether a camera frame in render space makes a camera: a finite position, and a view

@@ -19,6 +19,19 @@
 use glam::{DVec3, Vec3, Vec3A};
 use obvhs::{ray::Ray, triangle::Triangle};
 
+/// `ray` with its inverse direction as the box tests need it: obvhs's `Ray::new` clamps a
+/// component under f32's epsilon to 1/epsilon, so a ray along an axis that starts within
+/// microns of a box's face left that slab after (face - origin) x 8e6 and missed what lay
+/// beyond (found comparing kept instances with the flattened scene). Here only components
+/// under 1e-30 are clamped (to 1e30, never an infinity that could make 0 x inf a NaN).
+#[inline(always)]
+pub fn walkable(mut ray: Ray) -> Ray {
+    let inv = |c: f32| if c.abs() < 1e-30 { 1e30f32.copysign(c) } else { 1.0 / c };
+    let d = ray.direction;
+    ray.inv_direction = glam::Vec3A::new(inv(d.x), inv(d.y), inv(d.z));
+    ray
+}
+
 /// A ray in the test's frame: the axis it runs along (`kz`), the other two, and the shear.
 /// Built once per ray; the test per triangle is then translations, six products and the
 /// three edge functions, in f64 (scalar f64 costs what scalar f32 does here).
