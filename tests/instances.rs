@@ -450,7 +450,7 @@ fn unique_triangles_count_the_first_instance_kept_or_flattened() {
 /// instance's leaf boxes: obvhs's `Ray::new` clamps a direction component under f32's
 /// epsilon, which ended a ray's stay in a slab early (the flattened walk missed 35 of 18,000
 /// such rays, the kept one more: its direction was shrunk 100x). Both walk with
-/// `scene::walkable`'s inverse now: every ray meets the floor at the same t either way.
+/// `watertight::walkable`'s inverse now: every ray meets the floor at the same t either way.
 #[test]
 fn rays_along_an_axis_meet_a_scaled_instance_kept_as_flattened() {
     let dir = TempDir::new("instances-axis");
