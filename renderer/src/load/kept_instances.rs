@@ -94,7 +94,10 @@ pub(super) fn build(
     let meshes: Vec<StoredMesh> =
         meshes.into_par_iter().map(|(prims, dropped, pad)| stored(prims, &dropped, pad)).collect();
     let boxes: Vec<Aabb> = placed.iter().map(|p| p.bounds).collect();
-    let mut tlas = obvhs::bvh2::builder::build_bvh2(&boxes, bvh_params(), &mut Duration::default());
+    // One instance per leaf: the walk's f32 box test then culls instances before their f64
+    // entry test and the ray's move into their space.
+    let params = obvhs::BvhBuildParams { max_prims_per_leaf: 1, ..bvh_params() };
+    let mut tlas = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
     cover_depth(&mut tlas);
     (Some(InstancedScene { meshes, placed, tlas, offset }), kept_triangles)
 }
