@@ -25,9 +25,8 @@ use std::sync::Arc;
 /// keep (boxes grown for every instance that uses it).
 pub struct StoredMesh {
     pub primitives: Arc<Vec<PrimitiveData>>,
-    /// Per leaf slot (tree order): the primitive, the triangle's index in it, and its index
-    /// in the mesh.
-    pub slots: Vec<[u32; 3]>,
+    /// Per leaf slot (tree order): the primitive and the triangle's index in it.
+    pub slots: Vec<[u32; 2]>,
     /// Per leaf slot: the triangle's corners in the file's winding, f64 (read by every test:
     /// one load instead of three dependent ones, no conversion).
     pub points: Vec<[DVec3; 3]>,
@@ -86,7 +85,7 @@ impl InstancedScene {
     /// [`Self::render_triangle`] with the primitive and the corners' indices (for shading).
     pub fn triangle(&self, p: &Placed, slot: usize) -> PlacedTriangle {
         let mesh = &self.meshes[p.mesh as usize];
-        let [prim, k, _] = mesh.slots[slot];
+        let [prim, k] = mesh.slots[slot];
         let corners = p.placing.corners(mesh.primitives[prim as usize].corners[k as usize]);
         PlacedTriangle { tri: self.render_triangle(p, slot), primitive: prim, corners }
     }

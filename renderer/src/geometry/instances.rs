@@ -100,8 +100,7 @@ pub struct Placement {
 /// either way.
 #[derive(Debug, Clone, Copy)]
 pub struct Placing {
-    world: DMat4,
-    /// `world` as an affine map: the same products and sums in the same order as
+    /// The world transform as an affine map: the same products and sums in the same order as
     /// `DMat4::transform_point3` (so the same bits), without its fourth lane.
     affine: DAffine3,
     normal_from_file: DMat3,
@@ -112,11 +111,12 @@ impl Placing {
     pub fn new(world: DMat4) -> Placing {
         let normal_from_file = DMat3::from_mat4(world).inverse().transpose();
         let affine = DAffine3::from_mat4(world);
-        Placing { world, affine, normal_from_file, mirrored: world.determinant() < 0.0 }
+        Placing { affine, normal_from_file, mirrored: world.determinant() < 0.0 }
     }
 
-    pub fn world(&self) -> DMat4 {
-        self.world
+    /// The transform's linear part.
+    pub fn linear(&self) -> DMat3 {
+        self.affine.matrix3
     }
 
     /// Whether the transform mirrors (its triangles' last two corners swapped).

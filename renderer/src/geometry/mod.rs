@@ -15,6 +15,6 @@ pub mod precision;
 mod precision_tests;
 pub mod ray_origin;
 pub mod scene;
-pub(crate) mod scene_bvh;
+pub mod scene_bvh;
 pub mod shaft;
 pub mod watertight;

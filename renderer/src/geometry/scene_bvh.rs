@@ -21,11 +21,11 @@ use rayon::prelude::*;
 use std::ops::Range;
 use std::time::Duration;
 
-/// A tree over some of the scene's triangles: its nodes (root first) and, in leaf order,
-/// the triangles' indices in the scene's load order.
-struct Tree {
-    nodes: Vec<Bvh2Node>,
-    triangles: Vec<u32>,
+/// A tree over some of a larger set's items: its nodes (root first, obvhs's layout) and, in
+/// leaf order, the items' indices in the whole set.
+pub struct SubTree {
+    pub nodes: Vec<Bvh2Node>,
+    pub items: Vec<u32>,
 }
 
 /// The BVH over `tris` (load order, `origins` naming each one's instance), its
@@ -51,7 +51,7 @@ pub(crate) fn build(
         .filter(|(_, s)| !**s)
         .flat_map(|((_, r), _)| r.clone().map(|i| i as u32))
         .collect();
-    let mut trees: Vec<Tree> = Vec::new();
+    let mut trees: Vec<SubTree> = Vec::new();
     if !rest.is_empty() {
         // Gathered in load order: with nothing shared, the same input (and tree) as ever.
         let gathered: Vec<Triangle> = rest.iter().map(|&i| tris[i as usize]).collect();
@@ -61,20 +61,17 @@ pub(crate) fn build(
         if shared.is_empty() {
             return Some(Bvh2 { primitive_indices: triangles, ..bvh });
         }
-        trees.push(Tree { nodes: bvh.nodes, triangles });
+        trees.push(SubTree { nodes: bvh.nodes, items: triangles });
     }
     for (template, copies) in &shared {
         let first = runs[*template].1.clone();
         let bvh =
             obvhs::bvh2::builder::build_bvh2_from_tris(&tris[first], bvh_params(), &mut Duration::default());
-        let refit: Vec<Tree> =
+        let refit: Vec<SubTree> =
             copies.par_iter().map(|&r| refit(&bvh, runs[r].1.start as u32, tris)).collect();
         trees.extend(refit);
     }
-    let mut joined = Bvh2 { nodes: vec![Bvh2Node::default()], ..Bvh2::default() };
-    let mut order: Vec<usize> = (0..trees.len()).collect();
-    join(&mut joined, &trees, &mut order, 0);
-    Some(joined)
+    Some(join(&trees))
 }
 
 /// Runs of consecutive triangles of one instance (or of no mesh), in load order.
@@ -123,7 +120,7 @@ fn shared_runs(
 
 /// `template`'s tree over the run of triangles starting at `start` (the same mesh, in the same
 /// order): its nodes with boxes refit to those triangles, children before parents.
-fn refit(template: &Bvh2, start: u32, tris: &[Triangle]) -> Tree {
+fn refit(template: &Bvh2, start: u32, tris: &[Triangle]) -> SubTree {
     let mut nodes = template.nodes.clone();
     let triangles: Vec<u32> = template.primitive_indices.iter().map(|&k| start + k).collect();
     // Post-order: a node's box after its children's.
@@ -146,13 +143,24 @@ fn refit(template: &Bvh2, start: u32, tris: &[Triangle]) -> Tree {
             leaf.iter().fold(Aabb::empty(), |b, &t| b.union(&tris[t as usize].aabb()))
         };
     }
-    Tree { nodes, triangles }
+    SubTree { nodes, items: triangles }
+}
+
+/// One tree over `trees`: a tree over their roots' bounds, split at the median of their
+/// centres along the widest axis, each tree whole under it (its nodes moved after the top
+/// ones, its items in its leaves' order). `primitive_indices` are the items. Used for the
+/// scene's tree (a shared mesh's copies) and `silhouette`'s edge tree (one per instance).
+pub fn join(trees: &[SubTree]) -> Bvh2 {
+    let mut joined = Bvh2 { nodes: vec![Bvh2Node::default()], ..Bvh2::default() };
+    let mut order: Vec<usize> = (0..trees.len()).collect();
+    join_at(&mut joined, trees, &mut order, 0);
+    joined
 }
 
 /// Fills node `slot` of `joined` with a tree over `trees[groups]`: the tree itself where one
 /// is left, else two children over the halves of `groups` sorted along the widest axis of
 /// their roots' centres.
-fn join(joined: &mut Bvh2, trees: &[Tree], groups: &mut [usize], slot: usize) {
+fn join_at(joined: &mut Bvh2, trees: &[SubTree], groups: &mut [usize], slot: usize) {
     if let [g] = groups {
         let tree = &trees[*g];
         let (node_base, prim_base) = (joined.nodes.len() as u32 - 1, joined.primitive_indices.len() as u32);
@@ -163,7 +171,7 @@ fn join(joined: &mut Bvh2, trees: &[Tree], groups: &mut [usize], slot: usize) {
         }
         joined.nodes[slot] = moved(&tree.nodes[0], node_base, prim_base);
         joined.nodes.extend(tree.nodes[1..].iter().map(|n| moved(n, node_base, prim_base)));
-        joined.primitive_indices.extend_from_slice(&tree.triangles);
+        joined.primitive_indices.extend_from_slice(&tree.items);
         return;
     }
     let root = |g: usize| trees[g].nodes[0].aabb;
@@ -174,8 +182,8 @@ fn join(joined: &mut Bvh2, trees: &[Tree], groups: &mut [usize], slot: usize) {
     joined.nodes.extend([Bvh2Node::default(); 2]);
     joined.nodes[slot] = Bvh2Node::new(bounds, 0, first as u32);
     let (lo, hi) = groups.split_at_mut(groups.len() / 2);
-    join(joined, trees, lo, first);
-    join(joined, trees, hi, first + 1);
+    join_at(joined, trees, lo, first);
+    join_at(joined, trees, hi, first + 1);
 }
 
 #[cfg(test)]

@@ -410,12 +410,11 @@ impl Scene {
 /// triangles placed as the flattened scene holds them and tested as it tests them.
 fn kept_clear(inst: &InstancedScene, p: &Placed, shaft: &Shaft) -> bool {
     let bvh = &inst.meshes[p.mesh as usize].bvh;
-    let world = p.placing.world();
-    let linear = glam::DMat3::from_mat4(world);
+    let linear = p.placing.linear();
     let abs = glam::DMat3::from_cols(linear.x_axis.abs(), linear.y_axis.abs(), linear.z_axis.abs());
     let outside = |n: &obvhs::bvh2::node::Bvh2Node| {
         let (lo, hi) = (Vec3::from(n.aabb.min).as_dvec3(), Vec3::from(n.aabb.max).as_dvec3());
-        let c = world.transform_point3(0.5 * (lo + hi)) - inst.offset;
+        let c = p.placing.point(0.5 * (lo + hi)) - inst.offset;
         let e = abs * (0.5 * (hi - lo));
         let grow = e + (c.abs() + e) * (1.0 / (1u64 << 20) as f64);
         shaft.box_outside(Vec3A::from((c - grow).as_vec3()), Vec3A::from((c + grow).as_vec3()))

@@ -4,7 +4,7 @@
 
 use super::precision_tally::PrecisionTally;
 use crate::geometry::instanced::{InstancedScene, Placed, StoredMesh};
-use crate::geometry::instances::{Placement, Placing};
+use crate::geometry::instances::{Placement, Placing, PrimitiveData};
 use crate::geometry::precision::is_degenerate;
 use crate::geometry::scene::{bvh_params, cover_depth};
 use glam::{DMat4, DVec3, Vec3, Vec3A};
@@ -48,7 +48,7 @@ pub(super) fn build(
     }
     // One stored mesh per (mesh, dropped triangles): almost always one per mesh.
     let mut groups: HashMap<(usize, Vec<u32>), u32> = HashMap::new();
-    let mut meshes: Vec<(Arc<Vec<crate::geometry::instances::PrimitiveData>>, Vec<u32>, f64)> = Vec::new();
+    let mut meshes: Vec<(Arc<Vec<PrimitiveData>>, Vec<u32>, f64)> = Vec::new();
     let mut placed = Vec::new();
     for (pl, pass) in placements.iter().zip(passes) {
         if pass.kept == 0 {
@@ -139,11 +139,7 @@ fn pass(p: &Placement, offset: DVec3) -> Pass {
 
 /// A mesh's tree over the triangles not `dropped`, in its own space, every box grown by
 /// `pad` plus the rounding of the ray's move (f32's epsilon times the mesh's size, 32-fold).
-fn stored(
-    primitives: Arc<Vec<crate::geometry::instances::PrimitiveData>>,
-    dropped: &[u32],
-    pad: f64,
-) -> StoredMesh {
+fn stored(primitives: Arc<Vec<PrimitiveData>>, dropped: &[u32], pad: f64) -> StoredMesh {
     let mut slots = Vec::new();
     let mut tris = Vec::new();
     let mut magnitude = 0.0f32;
@@ -157,17 +153,17 @@ fn stored(
                 let v = c.map(|i| Vec3A::from(data.positions[i as usize]));
                 magnitude = v.iter().fold(magnitude, |m, p| m.max(p.abs().max_element()));
                 tris.push(Triangle { v0: v[0], v1: v[1], v2: v[2] });
-                slots.push([pi as u32, k as u32, local]);
+                slots.push([pi as u32, k as u32]);
             }
             local += 1;
         }
     }
     let mut bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, bvh_params(), &mut Duration::default());
     cover_depth(&mut bvh);
-    let slots: Vec<[u32; 3]> = bvh.primitive_indices.iter().map(|&i| slots[i as usize]).collect();
+    let slots: Vec<[u32; 2]> = bvh.primitive_indices.iter().map(|&i| slots[i as usize]).collect();
     let points = slots
         .iter()
-        .map(|&[pi, k, _]| {
+        .map(|&[pi, k]| {
             let data = &primitives[pi as usize];
             data.corners[k as usize].map(|i| DVec3::from(data.positions[i as usize].map(f64::from)))
         })

@@ -19,8 +19,8 @@ use super::edges::EdgeSet;
 use glam::{DVec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
-use obvhs::bvh2::node::Bvh2Node;
 use rayon::prelude::*;
+use renderer::geometry::scene_bvh::{self, SubTree};
 use renderer::geometry::shaft::{self, Shaft};
 use std::time::Duration;
 
@@ -266,45 +266,15 @@ fn build_grouped(boxes: &[Aabb], ends: &[usize]) -> Bvh2 {
         tree.primitive_indices.iter_mut().for_each(|i| *i += start);
         return tree;
     }
-    let mut joined = Bvh2 { nodes: vec![Bvh2Node::default()], ..Bvh2::default() };
-    let mut order: Vec<usize> = (0..trees.len()).collect();
-    join(&mut joined, &trees, &ranges, &mut order, 0);
-    joined
-}
-
-/// Fills node `slot` of `joined` with a tree over `groups` (their trees and item ranges):
-/// the group's own tree where one is left, else two children over the halves of `groups`
-/// sorted along the widest axis of their roots' centres.
-fn join(
-    joined: &mut Bvh2,
-    trees: &[Bvh2],
-    ranges: &[std::ops::Range<usize>],
-    groups: &mut [usize],
-    slot: usize,
-) {
-    if let [g] = groups {
-        let (tree, start) = (&trees[*g], ranges[*g].start as u32);
-        let (node_base, prim_base) = (joined.nodes.len() as u32 - 1, joined.primitive_indices.len() as u32);
-        // Node k > 0 of the group's tree goes to node_base + k; its root to `slot`.
-        let moved = |mut n: Bvh2Node| {
-            n.first_index += if n.prim_count == 0 { node_base } else { prim_base };
-            n
-        };
-        joined.nodes[slot] = tree.nodes.first().copied().map(moved).expect("a tree has a root");
-        joined.nodes.extend(tree.nodes[1..].iter().copied().map(moved));
-        joined.primitive_indices.extend(tree.primitive_indices.iter().map(|&i| start + i));
-        return;
-    }
-    let root = |g: usize| trees[g].nodes[0].aabb;
-    let bounds = groups.iter().fold(Aabb::empty(), |b, &g| b.union(&root(g)));
-    let axis = bounds.largest_axis();
-    groups.sort_by(|&x, &y| root(x).center()[axis].total_cmp(&root(y).center()[axis]).then(x.cmp(&y)));
-    let first = joined.nodes.len();
-    joined.nodes.extend([Bvh2Node::default(); 2]);
-    joined.nodes[slot] = Bvh2Node::new(bounds, 0, first as u32);
-    let (lo, hi) = groups.split_at_mut(groups.len() / 2);
-    join(joined, trees, ranges, lo, first);
-    join(joined, trees, ranges, hi, first + 1);
+    let trees: Vec<SubTree> = trees
+        .into_iter()
+        .zip(&ranges)
+        .map(|(t, r)| SubTree {
+            nodes: t.nodes,
+            items: t.primitive_indices.iter().map(|&i| r.start as u32 + i).collect(),
+        })
+        .collect();
+    scene_bvh::join(&trees)
 }
 
 /// The face planes of an item: an edge between exactly two faces gives both, with normals
