@@ -89,6 +89,11 @@ pub struct RenderArgs {
     /// studies that switch what a scene file cannot (a plugin's code-only fields).
     #[arg(skip)]
     pub method: Option<Arc<dyn ShadowMethod>>,
+    /// Code only (no flag): whether to keep instances unflattened, instead of the method's
+    /// rule (kept only where the flattened scene does not fit). For tests that compare the
+    /// two on scenes that fit.
+    #[arg(skip)]
+    pub keep_instances: Option<KeepInstances>,
 }
 
 /// What a finished render reports back.
@@ -113,10 +118,10 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     let outcome = pool.install(|| {
         progress.phase("loading the scene and building the BVH", 0);
         // Only methods that trace through the scene's queries render kept instances.
-        let keep = match methods::registered(plan.shadows.name()) {
+        let keep = args.keep_instances.unwrap_or(match methods::registered(plan.shadows.name()) {
             Some(m) if m.traces_kept_instances => KeepInstances::WhenNeeded,
             _ => KeepInstances::Never,
-        };
+        });
         let options = LoadOptions { memory_limit: memory::available_bytes(), keep };
         let scene = Scene::load_with(&plan.file, &plan.scene_path, options)?;
         let loaded = t_total.elapsed();

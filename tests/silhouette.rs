@@ -205,6 +205,59 @@ fn instanced_meshes_agree_with_the_bvh() {
     assert!(settled > 1_000_000, "only {settled} settled samples checked");
 }
 
+/// The same instanced meshes kept unflattened (each mesh's edges found once in its own
+/// space, placed per instance as the walk meets them): every settled sample agrees with the
+/// BVH, the answers equal tracing the same samples, and the instances are counted, not
+/// traced whole (under 5% of the points meet one the counting leaves out).
+#[test]
+fn kept_instances_agree_with_the_bvh() {
+    let dir = TempDir::new("silhouette-kept-instances");
+    let scenes = soups::instanced_soups(&dir, 43);
+    let keys = [
+        "checked_settled",
+        "checked_wrong",
+        "answers_differ",
+        "instances_counted",
+        "points_fallback_kept_instance",
+        "silhouette_points",
+    ];
+    let keep = Some(renderer::KeepInstances::Always);
+    let [settled, wrong, differ, counted, uncounted, points] = checked::summed(&scenes, |s| {
+        checked::counters_kept(s, (64, 48, 512), Arc::new(CheckedMethod), "kept", keys, keep)
+    });
+    eprintln!(
+        "kept: {settled} settled, {wrong} wrong, {differ} differ; {counted} instances counted; {uncounted} of {points} points traced whole for an uncounted instance"
+    );
+    assert_eq!((wrong, differ), (0, 0), "disagreements with the BVH, answers differing from tracing");
+    assert!(settled > 1_000_000, "only {settled} settled samples checked");
+    assert!(counted >= 10, "only {counted} instances counted");
+    assert!(uncounted * 20 < points, "{uncounted} of {points} points traced whole");
+}
+
+/// Every shared scene with its instances kept (metal-rough-spheres: 98 of one sphere):
+/// every settled sample agrees with the BVH and every answer equals tracing the same
+/// samples. (Instances with alpha-tested materials or triangles near the light are not
+/// counted: their points are traced whole.)
+#[test]
+fn shared_scenes_with_kept_instances_agree_with_the_bvh() {
+    if !common::shared::scenes_present("silhouette::shared_scenes_with_kept_instances_agree_with_the_bvh") {
+        return;
+    }
+    let mut scenes: Vec<PathBuf> = std::fs::read_dir(root().join("scenes/gltf"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    scenes.sort();
+    let keys = ["checked_settled", "checked_wrong", "answers_differ"];
+    let keep = Some(renderer::KeepInstances::Always);
+    let [settled, wrong, differ] = checked::summed(&scenes, |s| {
+        checked::counters_kept(s, (64, 48, 256), Arc::new(CheckedMethod), "kept-shared", keys, keep)
+    });
+    assert_eq!((wrong, differ), (0, 0), "disagreements with the BVH, answers differing from tracing");
+    assert!(settled > 500_000, "only {settled} settled samples checked");
+}
+
 /// Random soups of alpha-masked triangles (a banded texture: clear, noise, opaque; wrapped
 /// and transformed; constant alphas) among opaque ones: every class is met, and every
 /// settled sample agrees with the BVH (opaque ones counted, clear ones dropped, mixed ones

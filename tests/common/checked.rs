@@ -12,10 +12,23 @@ use std::sync::Arc;
 /// `samples` through `method`; the image files are removed (`tag` names their folder).
 pub fn counters<const K: usize>(
     scene: &Path,
+    dims: (u32, u32, u32),
+    method: Arc<dyn ShadowMethod>,
+    tag: &str,
+    keys: [&str; K],
+) -> [u64; K] {
+    counters_kept(scene, dims, method, tag, keys, None)
+}
+
+/// [`counters`] with instances kept unflattened or not as `keep` says (`None`: the method's
+/// rule).
+pub fn counters_kept<const K: usize>(
+    scene: &Path,
     (width, height, samples): (u32, u32, u32),
     method: Arc<dyn ShadowMethod>,
     tag: &str,
     keys: [&str; K],
+    keep: Option<renderer::KeepInstances>,
 ) -> [u64; K] {
     let dir = std::env::temp_dir().join(format!("penumbra-{tag}-{}", std::process::id()));
     let stem = scene.file_stem().unwrap().to_string_lossy().to_string();
@@ -29,6 +42,7 @@ pub fn counters<const K: usize>(
         quiet: true,
         method: Some(method),
         max_depth: paths_depth(scene),
+        keep_instances: keep,
         ..Default::default()
     };
     let outcome = run_render(&args).unwrap_or_else(|e| panic!("{}: {e}", scene.display()));

@@ -15,6 +15,7 @@ pub const READERS: &[&str] = &[
     "exact_edge_table::shared_and_bench_scenes_agree_with_the_bvh",
     "silhouette::shared_scenes_agree_with_the_bvh",
     "silhouette::points_with_more_edges_than_the_counting_pays_for",
+    "silhouette::shared_scenes_with_kept_instances_agree_with_the_bvh",
     "bench::a_changed_model_buffer_renders_the_truth_anew",
     "instances::metal_rough_spheres_kept_answers_as_flattened",
 ];

@@ -14,7 +14,7 @@
 //! the fly): `traced` renders 14-31% slower than from stored triangles.
 
 use crate::geometry::instances::{Placing, PrimitiveData};
-use glam::{DMat4, DVec3, Vec2, Vec3, Vec3A};
+use glam::{DMat3, DMat4, DVec3, Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::ray::{Ray, RayHit};
@@ -80,6 +80,19 @@ impl InstancedScene {
         }
         let v = c.map(|x| Vec3A::from((p.placing.point(x) - self.offset).as_vec3()));
         Triangle { v0: v[0], v1: v[1], v2: v[2] }
+    }
+
+    /// A box in render space holding the placed corners (f32, as [`Self::render_triangle`]
+    /// rounds them) of every mesh point in `aabb` (the mesh's space): its centre and half
+    /// extent carried in f64 (`linear_abs`: the placing's linear part, entries made
+    /// positive), grown by 2^-20 of its reach for the f32 rounding.
+    #[inline]
+    pub fn render_box(&self, p: &Placed, linear_abs: &DMat3, aabb: &Aabb) -> (Vec3A, Vec3A) {
+        let (lo, hi) = (Vec3::from(aabb.min).as_dvec3(), Vec3::from(aabb.max).as_dvec3());
+        let c = p.placing.point(0.5 * (lo + hi)) - self.offset;
+        let e = *linear_abs * (0.5 * (hi - lo));
+        let grow = e + (c.abs() + e) * (1.0 / (1u64 << 20) as f64);
+        (Vec3A::from((c - grow).as_vec3()), Vec3A::from((c + grow).as_vec3()))
     }
 
     /// [`Self::render_triangle`] with the primitive and the corners' indices (for shading).

@@ -265,7 +265,7 @@ impl Shaft {
 
     /// Whether the box `[min, max]` lies wholly outside one face.
     #[inline]
-    fn box_outside(&self, min: Vec3A, max: Vec3A) -> bool {
+    pub fn box_outside(&self, min: Vec3A, max: Vec3A) -> bool {
         self.faces.iter().any(|f| {
             // The box corner deepest inside the face: if even it is outside, all are.
             let v = Vec3A::select(f.normal.cmpge(Vec3A::ZERO), min, max);
@@ -410,14 +410,10 @@ impl Scene {
 /// triangles placed as the flattened scene holds them and tested as it tests them.
 fn kept_clear(inst: &InstancedScene, p: &Placed, shaft: &Shaft) -> bool {
     let bvh = &inst.meshes[p.mesh as usize].bvh;
-    let linear = p.placing.linear();
-    let abs = glam::DMat3::from_cols(linear.x_axis.abs(), linear.y_axis.abs(), linear.z_axis.abs());
+    let linear = p.placing.linear().abs();
     let outside = |n: &obvhs::bvh2::node::Bvh2Node| {
-        let (lo, hi) = (Vec3::from(n.aabb.min).as_dvec3(), Vec3::from(n.aabb.max).as_dvec3());
-        let c = p.placing.point(0.5 * (lo + hi)) - inst.offset;
-        let e = abs * (0.5 * (hi - lo));
-        let grow = e + (c.abs() + e) * (1.0 / (1u64 << 20) as f64);
-        shaft.box_outside(Vec3A::from((c - grow).as_vec3()), Vec3A::from((c + grow).as_vec3()))
+        let (lo, hi) = inst.render_box(p, &linear, &n.aabb);
+        shaft.box_outside(lo, hi)
     };
     let mut stack = vec![0usize];
     while let Some(i) = stack.pop() {

@@ -21,10 +21,11 @@
 use super::Fallback;
 use super::edge_tree::{EdgeRecord, EdgeTree};
 use super::edges::EdgeSet;
+use super::kept::KeptEdges;
 use glam::{DVec3, Vec3, Vec3A};
-use renderer::RectLight;
 use renderer::geometry::shaft::Shaft;
 use renderer::util::sampling::mix64;
+use renderer::{RectLight, Scene};
 
 /// A cube's side is about the origin's distance to the light's centre over this. Measured
 /// (silhouette's shadow seconds at 320x240, N = 1024, medians of 3 side by side;
@@ -64,14 +65,18 @@ impl Key {
 pub(super) struct Candidate {
     pub(super) a: Vec3A,
     pub(super) b: Vec3A,
+    /// The third corners of its faces (the first `faces`; none for an edge of more than
+    /// two, whose faces are read from the set by `edge`).
+    pub(super) thirds: [Vec3; 2],
     pub(super) edge: u32,
     /// Its weight over the whole block, or [`VARIES`].
     pub(super) weight: i8,
+    pub(super) faces: u8,
 }
 
 impl Candidate {
     pub(super) fn new(r: &EdgeRecord, weight: i8) -> Candidate {
-        Candidate { a: r.a, b: r.b, edge: r.edge, weight }
+        Candidate { a: r.a, b: r.b, thirds: r.thirds, edge: r.edge, weight, faces: r.faces }
     }
 }
 
@@ -109,7 +114,8 @@ impl Blocks {
         &mut self,
         plugin: u64,
         light: &RectLight,
-        (set, tree): (&EdgeSet, &EdgeTree),
+        (set, tree, kept): (&EdgeSet, &EdgeTree, &KeptEdges),
+        scene: &Scene,
         origin: Vec3,
         max_candidates: usize,
     ) -> Option<Result<BlockList<'_>, Fallback>> {
@@ -145,6 +151,24 @@ impl Blocks {
                 if w != 0 {
                     entry.candidates.push(Candidate::new(r, w));
                 }
+            }
+            // The kept instances' edges, weighed as they are found.
+            if entry.refused.is_none() {
+                let mut walked = entry.edges.len();
+                let ball = (centre, radius);
+                entry.refused = match kept.gather(
+                    scene,
+                    &shaft,
+                    ball,
+                    true,
+                    &mut entry.candidates,
+                    (&mut walked, max_walked),
+                ) {
+                    Err(why) => Some(why),
+                    Ok(_) if walked > max_walked => Some(Fallback::Costly),
+                    Ok(false) => Some(Fallback::NoShaft),
+                    Ok(true) => None,
+                };
             }
             if entry.refused.is_none() && entry.candidates.len() > max_candidates {
                 entry.refused = Some(Fallback::Costly);
@@ -193,7 +217,7 @@ fn block_of(plugin: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVec3,
 /// |N| radius over the ball; a face is counted only where its sign holds over the whole ball
 /// by more than the f64 rounding (then each point's own exact predicate gives the same sign).
 /// N's components are rounded by under 2^-52 of `scale` each: 1e-12 of it is far over.
-fn block_weight(r: &EdgeRecord, centre: DVec3, radius: f64) -> i8 {
+pub(super) fn block_weight(r: &EdgeRecord, centre: DVec3, radius: f64) -> i8 {
     if r.faces == 0 {
         return VARIES;
     }

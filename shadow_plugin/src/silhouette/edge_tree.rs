@@ -16,7 +16,7 @@
 //! side.
 
 use super::edges::EdgeSet;
-use glam::{DVec3, Vec3A};
+use glam::{DVec3, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use rayon::prelude::*;
@@ -45,23 +45,23 @@ pub struct EdgeTree {
 /// `axis . (o - centre) +- (depth + spread (|o - centre| + reach))`. An infinite spread
 /// bounds nothing (boundary and non-manifold edges, flagged triangles: never pruned).
 #[derive(Debug, Clone, Copy)]
-struct Cone {
+pub(super) struct Cone {
     axis: DVec3,
-    centre: DVec3,
+    pub(super) centre: DVec3,
     spread: f64,
-    reach: f64,
+    pub(super) reach: f64,
     depth: f64,
 }
 
 impl Cone {
-    const NONE: Cone =
+    pub(super) const NONE: Cone =
         Cone { axis: DVec3::Z, centre: DVec3::ZERO, spread: f64::INFINITY, reach: 0.0, depth: 0.0 };
 
     /// Whether every origin within `radius` of `o` is strictly on one and the same side of
     /// every plane the cone bounds, with a margin for the f64 evaluation (relative 1e-9 of
     /// the magnitudes involved: far above its rounding). Over the ball `axis . (o - centre)`
     /// moves by at most the radius, and the distance from the centre grows by at most it.
-    fn one_side(&self, o: DVec3, radius: f64) -> bool {
+    pub(super) fn one_side(&self, o: DVec3, radius: f64) -> bool {
         if !self.spread.is_finite() {
             return false;
         }
@@ -116,7 +116,10 @@ pub struct EdgeRecord {
     pub planes: [DVec3; 2],
     /// |b - a| |c_k - a|: a bound on each component of N_k's products (its rounding).
     pub scale: [f64; 2],
-    /// The edge's id in the set (its faces' third vertices).
+    /// The third corners of its faces (the first `faces`).
+    pub thirds: [Vec3; 2],
+    /// The edge's id in the set (its faces' third vertices), or `u32::MAX` (a kept
+    /// instance's edge: `thirds` hold its faces).
     pub edge: u32,
     /// How many faces `planes` holds: 1 or 2, or 0 where the edge has more (never known
     /// over a block).
@@ -129,6 +132,7 @@ impl EdgeRecord {
         b: Vec3A::ZERO,
         planes: [DVec3::ZERO; 2],
         scale: [0.0; 2],
+        thirds: [Vec3::ZERO; 2],
         edge: u32::MAX,
         faces: 0,
     };
@@ -136,15 +140,28 @@ impl EdgeRecord {
     pub(super) fn new(set: &EdgeSet, id: u32) -> EdgeRecord {
         let e = set.edges[id as usize];
         let v = |i: u32| set.vertices[i as usize];
-        let (a, b) = (v(e.a).as_dvec3(), v(e.b).as_dvec3());
-        let mut record = EdgeRecord { a: v(e.a).into(), b: v(e.b).into(), edge: id, ..EdgeRecord::BLANK };
-        if e.count <= 2 {
-            record.faces = e.count as u8;
-            for (k, &c) in set.thirds[e.first as usize..(e.first + e.count) as usize].iter().enumerate() {
-                let (p, q) = (b - a, v(c).as_dvec3() - a);
-                record.planes[k] = p.cross(q);
-                record.scale[k] = p.length() * q.length();
-            }
+        if e.count > 2 {
+            let (a, b) = (v(e.a).into(), v(e.b).into());
+            return EdgeRecord { a, b, edge: id, ..EdgeRecord::BLANK };
+        }
+        let mut thirds = [Vec3::ZERO; 2];
+        for (k, &c) in set.thirds[e.first as usize..(e.first + e.count) as usize].iter().enumerate() {
+            thirds[k] = v(c);
+        }
+        EdgeRecord { edge: id, ..EdgeRecord::from_points(v(e.a), v(e.b), &thirds[..e.count as usize]) }
+    }
+
+    /// The record of the edge (a, b) between the faces of third corners `thirds` (one or
+    /// two), with no id in a set.
+    pub(super) fn from_points(a: Vec3, b: Vec3, thirds: &[Vec3]) -> EdgeRecord {
+        let mut record =
+            EdgeRecord { a: a.into(), b: b.into(), faces: thirds.len() as u8, ..EdgeRecord::BLANK };
+        let (a, b) = (a.as_dvec3(), b.as_dvec3());
+        for (k, &c) in thirds.iter().enumerate() {
+            let (p, q) = (b - a, c.as_dvec3() - a);
+            record.planes[k] = p.cross(q);
+            record.scale[k] = p.length() * q.length();
+            record.thirds[k] = c;
         }
         record
     }
@@ -182,7 +199,7 @@ impl EdgeTree {
         ends.push(boxes.len());
         let bvh = build_grouped(&boxes, &ends);
         let items: Vec<u32> = bvh.primitive_indices.iter().map(|&i| items[i as usize]).collect();
-        let cones = cones(&bvh, &items, set);
+        let cones = cones(&bvh, |pos| planes(items[pos], set));
         // In parallel, as the leaves' cones (boulder-field, 2.2 M edges: 0.3 s each alone).
         let records = items
             .par_iter()
@@ -301,8 +318,9 @@ fn planes(item: u32, set: &EdgeSet) -> Option<[(DVec3, DVec3); 2]> {
 }
 
 /// Every node's cone, children before parents (a node's children follow it in obvhs's
-/// layout: built by an explicit post-order walk).
-fn cones(bvh: &Bvh2, items: &[u32], set: &EdgeSet) -> Vec<Cone> {
+/// layout: built by an explicit post-order walk), from `planes` of each item by its
+/// position in leaf order.
+pub(super) fn cones(bvh: &Bvh2, planes: impl Fn(usize) -> Option<[(DVec3, DVec3); 2]> + Sync) -> Vec<Cone> {
     let mut cones = vec![Cone::NONE; bvh.nodes.len()];
     let mut order = Vec::with_capacity(bvh.nodes.len());
     let mut stack = vec![0usize];
@@ -322,8 +340,8 @@ fn cones(bvh: &Bvh2, items: &[u32], set: &EdgeSet) -> Vec<Cone> {
             planes_buf.clear();
             let range = node.first_index as usize..(node.first_index + node.prim_count) as usize;
             let mut all = true;
-            for &item in &items[range] {
-                match planes(item, set) {
+            for pos in range {
+                match planes(pos) {
                     Some(p) => planes_buf.extend(p),
                     None => all = false,
                 }

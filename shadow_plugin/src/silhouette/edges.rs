@@ -238,7 +238,7 @@ impl EdgeSet {
 
 /// The light's corners grown by 1% of its size: samples are drawn in f32 and may stray a
 /// rounding outside the rectangle.
-fn light_corners_grown(light: &RectLight) -> [DVec3; 4] {
+pub(super) fn light_corners_grown(light: &RectLight) -> [DVec3; 4] {
     let (c, u, v) = (light.center.as_dvec3(), light.u.as_dvec3(), light.v.as_dvec3());
     let (hu, hv) = (0.51 * u, 0.51 * v);
     [c - hu - hv, c + hu - hv, c + hu + hv, c - hu + hv]
@@ -249,7 +249,7 @@ fn light_corners_grown(light: &RectLight) -> [DVec3; 4] {
 /// triangle within that fraction of the farthest point's height, or across the plane, may
 /// or may not be met depending on the point. Twice that, plus the light's coordinates'
 /// rounding (each triangle adds its own).
-fn near_light_band(scene: &Scene, light: &RectLight) -> f64 {
+pub(super) fn near_light_band(scene: &Scene, light: &RectLight) -> f64 {
     let n = light.normal.as_dvec3();
     let c = light.center.as_dvec3();
     let mut far = 0.0f64;

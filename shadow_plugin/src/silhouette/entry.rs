@@ -11,6 +11,7 @@ impl MethodEntry for SilhouetteParams {
     /// One parameter (N): a curve, like `traced`'s.
     const PLOT_LINE: bool = true;
     const BENCH_RANK: u32 = 40;
+    const TRACES_KEPT_INSTANCES: bool = true;
 
     /// Over sample counts: its error is `traced`'s at the same N (the same samples, settled
     /// exactly), so its curve lies on `traced`'s error axis at its own cost.

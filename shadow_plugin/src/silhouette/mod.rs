@@ -48,6 +48,7 @@ mod counting;
 mod edge_tree;
 mod edges;
 mod entry;
+mod kept;
 mod projection;
 mod query;
 mod scratch;
@@ -125,6 +126,8 @@ enum Fallback {
     Costly,
     NoShaft,
     Inconsistent,
+    /// The shaft meets a kept instance the counting does not answer for (`kept.rs`).
+    KeptInstance,
 }
 
 /// The plugin: the light's edge set and `traced` (for the samples and the rays).
@@ -135,6 +138,7 @@ pub struct Silhouette {
     id: u64,
     edges: EdgeSet,
     tree: EdgeTree,
+    kept: kept::KeptEdges,
     counters: Counters,
 }
 
@@ -155,6 +159,7 @@ struct Counters {
     fallback_costly: AtomicU64,
     fallback_no_shaft: AtomicU64,
     fallback_inconsistent: AtomicU64,
+    fallback_kept_instance: AtomicU64,
     alpha_tests: AtomicU64,
 }
 
@@ -165,6 +170,7 @@ impl Silhouette {
             id: 0,
             edges: EdgeSet::default(),
             tree: EdgeTree::default(),
+            kept: kept::KeptEdges::default(),
             counters: Counters::default(),
         }
     }
@@ -184,6 +190,7 @@ impl Silhouette {
             Fallback::Costly => &c.fallback_costly,
             Fallback::NoShaft => &c.fallback_no_shaft,
             Fallback::Inconsistent => &c.fallback_inconsistent,
+            Fallback::KeptInstance => &c.fallback_kept_instance,
         }
         .fetch_add(1, Ordering::Relaxed);
         let culled = match self.traced.point_samples_culled(scene, q, Culling::Leaves) {
@@ -227,10 +234,10 @@ impl LightShadowing for Silhouette {
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
-        ctx.scene.require_flattened(self.name())?;
         self.traced.prepare(ctx).map_err(|e| ShadowError { method: SilhouetteParams::NAME, ..e })?;
         self.edges = EdgeSet::build(ctx.scene, ctx.light);
         self.tree = EdgeTree::build(&self.edges);
+        self.kept = kept::KeptEdges::build(ctx.scene, ctx.light);
         // Never 0 (an unprepared plugin's), never reused in this process.
         static NEXT_ID: AtomicU64 = AtomicU64::new(1);
         self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
@@ -272,6 +279,7 @@ impl LightShadowing for Silhouette {
             ("points_fallback_costly", load(&c.fallback_costly)),
             ("points_fallback_no_shaft", load(&c.fallback_no_shaft)),
             ("points_fallback_inconsistent", load(&c.fallback_inconsistent)),
+            ("points_fallback_kept_instance", load(&c.fallback_kept_instance)),
             ("alpha_triangle_tests", load(&c.alpha_tests)),
             ("edges", s.edges),
             ("edges_potential", s.potential),
@@ -282,6 +290,8 @@ impl LightShadowing for Silhouette {
             ("triangles_alpha_clear", s.alpha_clear_triangles),
             ("triangles_near_light", s.near_light_triangles),
             ("triangles_zero_area", s.zero_area_triangles),
+            ("instances_counted", self.kept.counted),
+            ("instance_mesh_edges", self.kept.mesh_edges),
         ];
         // `traced`'s shaft counters (its rays are never traced through it).
         out.extend(self.traced.counters().into_iter().filter(|(k, _)| k.starts_with("shafts")));
@@ -289,6 +299,6 @@ impl LightShadowing for Silhouette {
     }
 
     fn memory_bytes(&self) -> u64 {
-        self.edges.bytes() + self.tree.bytes()
+        self.edges.bytes() + self.tree.bytes() + self.kept.bytes()
     }
 }

@@ -90,7 +90,7 @@ fn one_ray(
     s: &mut Scratch,
 ) -> Result<Option<f32>, Fallback> {
     let side = Side::both(q, samples.origin)[0];
-    side_edges(plugin, &side, samples, s)?;
+    side_edges((plugin, scene), &side, samples, s)?;
     if !(s.active.is_empty() && s.regions.is_empty()) {
         return Ok(None);
     }
@@ -130,8 +130,11 @@ fn relative_counts(
         if side.below {
             plugin.counters.points_below.fetch_add(1, Ordering::Relaxed);
         }
-        let edges =
-            if side.below || !above_gathered { side_edges(plugin, &side, samples, s) } else { Ok(()) };
+        let edges = if side.below || !above_gathered {
+            side_edges((plugin, scene), &side, samples, s)
+        } else {
+            Ok(())
+        };
         match edges.and_then(|()| side_counts(plugin, &side, samples, s)) {
             Ok(()) => {
                 let l = lit_count(plugin, scene, samples, s, side.below, rays)?;
@@ -171,7 +174,7 @@ const MAX_CANDIDATES_PER_SAMPLE_QUARTERS: usize = 32;
 /// One side's active edges and flagged triangles' regions, into `s` (see [`Side`]); `Costly`
 /// where the counting would cost more than tracing the point's samples.
 fn side_edges(
-    plugin: &Silhouette,
+    (plugin, scene): (&Silhouette, &Scene),
     side: &Side,
     samples: &PointSamples,
     s: &mut Scratch,
@@ -183,7 +186,7 @@ fn side_edges(
     let shaft = Shaft::new(light, &side.point).ok_or(Fallback::NoShaft)?.without_cut();
     let (nx, ny) = samples.strata();
     let n = (nx * ny) as usize;
-    s.gather(plugin, &shaft, frame.o, MAX_CANDIDATES_PER_SAMPLE_QUARTERS * n / 4)?;
+    s.gather((plugin, scene), &shaft, frame.o, MAX_CANDIDATES_PER_SAMPLE_QUARTERS * n / 4)?;
     s.activate(plugin, &frame)?;
     let c = &plugin.counters;
     c.edges_tested.fetch_add(s.candidates.len() as u64, Ordering::Relaxed);

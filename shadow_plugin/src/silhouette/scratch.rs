@@ -8,6 +8,7 @@ use super::edges::ALPHA;
 use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
 use super::{Fallback, Silhouette};
 use glam::{DVec2, DVec3};
+use renderer::Scene;
 use renderer::geometry::shaft::Shaft;
 use renderer::methods::light_samples::LightSample;
 use std::cell::RefCell;
@@ -67,7 +68,7 @@ impl Scratch {
     /// point alone where no block applies.
     pub(super) fn gather(
         &mut self,
-        plugin: &Silhouette,
+        (plugin, scene): (&Silhouette, &Scene),
         shaft: &Shaft,
         origin: DVec3,
         max_candidates: usize,
@@ -78,7 +79,14 @@ impl Scratch {
         let light = plugin.light();
         // A block with more candidates than the counting pays for is refused before any is
         // filtered, its walk stopped early.
-        match self.blocks.list(plugin.id, light, (set, tree), origin.as_vec3(), max_candidates) {
+        match self.blocks.list(
+            plugin.id,
+            light,
+            (set, tree, &plugin.kept),
+            scene,
+            origin.as_vec3(),
+            max_candidates,
+        ) {
             Some(Ok(list)) => {
                 self.candidates
                     .extend(list.candidates.iter().filter(|c| !shaft.segment_outside_hull(c.a, c.b)));
@@ -98,7 +106,11 @@ impl Scratch {
                 let complete = tree.gather(set, shaft, (origin, 0.0), walked, excluded, usize::MAX);
                 self.candidates
                     .extend(self.walked.iter().map(|&p| Candidate::new(&tree.records[p as usize], VARIES)));
-                if complete { Ok(()) } else { Err(Fallback::NoShaft) }
+                let mut count = 0;
+                let budget = (&mut count, usize::MAX);
+                let kept_complete =
+                    plugin.kept.gather(scene, shaft, (origin, 0.0), false, &mut self.candidates, budget)?;
+                if complete && kept_complete { Ok(()) } else { Err(Fallback::NoShaft) }
             }
         }
     }
@@ -247,17 +259,20 @@ impl Scratch {
             let n = d0.cross(d1);
             let mut weight = c.weight as i32;
             if c.weight == VARIES {
-                let edge = set.edges[c.edge as usize];
                 let n_abs = DVec3::new(
                     (d0.y * d1.z).abs() + (d0.z * d1.y).abs(),
                     (d0.z * d1.x).abs() + (d0.x * d1.z).abs(),
                     (d0.x * d1.y).abs() + (d0.y * d1.x).abs(),
                 );
-                weight = 0;
-                for &c in &set.thirds[edge.first as usize..(edge.first + edge.count) as usize] {
-                    let c = vertex(c);
-                    weight += orient_sign(n, n_abs, c, frame.o)
-                        .unwrap_or_else(|| exact_orient_sign(frame.o, e0, e1, c));
+                let face = |c: DVec3| {
+                    orient_sign(n, n_abs, c, frame.o).unwrap_or_else(|| exact_orient_sign(frame.o, e0, e1, c))
+                };
+                weight = c.thirds[..c.faces as usize].iter().map(|t| face(t.as_dvec3())).sum();
+                if c.faces == 0 {
+                    // More than two faces: read from the set.
+                    let edge = set.edges[c.edge as usize];
+                    let thirds = &set.thirds[edge.first as usize..(edge.first + edge.count) as usize];
+                    weight = thirds.iter().map(|&t| face(vertex(t))).sum();
                 }
             }
             if weight != 0 {

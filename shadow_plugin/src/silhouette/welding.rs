@@ -46,11 +46,17 @@ pub(super) fn unpack_side(p: u128) -> (u32, u32, u32, bool) {
 /// are welded by bit-identical position (-0.0 and 0.0 are one), sorted with ties by id
 /// so the ids are the same on every run.
 pub(super) fn weld(set_vertices: &mut Vec<Vec3>, set_corners: &mut Vec<[u32; 3]>, scene: &Scene) -> Welded {
+    // Ids only for the instances flattened into the scene's triangles: a kept one
+    // (`Scene::instanced`, `kept.rs`) holds none here.
+    let mut flat = vec![false; scene.instances.len()];
+    for o in scene.origins.iter().filter(|o| !o.is_loose()) {
+        flat[o.instance as usize] = true;
+    }
     let mut base = Vec::with_capacity(scene.instances.len());
     let mut total = 0u64;
-    for inst in &scene.instances {
+    for (inst, &flat) in scene.instances.iter().zip(&flat) {
         base.push(total as u32);
-        total += scene.meshes[inst.mesh as usize].vertices as u64;
+        total += if flat { scene.meshes[inst.mesh as usize].vertices as u64 } else { 0 };
     }
     // A loose corner's tag is total + its corner index (3 per triangle slot).
     let corners = 3 * scene.triangles.len() as u64;
@@ -101,7 +107,7 @@ pub(super) fn weld(set_vertices: &mut Vec<Vec3>, set_corners: &mut Vec<[u32; 3]>
     }
     // The meshes' boundary vertices, each instance's that a kept triangle uses.
     let boundaries: Vec<Vec<u32>> = scene.meshes.par_iter().map(boundary_vertices).collect();
-    for (i, inst) in scene.instances.iter().enumerate() {
+    for (i, inst) in scene.instances.iter().enumerate().filter(|&(i, _)| flat[i]) {
         for &v in &boundaries[inst.mesh as usize] {
             let id = base[i] + v;
             if !set_vertices[id as usize].is_nan() {
