@@ -207,10 +207,23 @@ fn gpu_instancing_errors_name_the_attribute_and_the_refusal_counts_copies() {
 fn load_both(dir: &std::path::Path, toml: &str) -> (Scene, Scene) {
     let path = dir.join("scene.toml");
     std::fs::write(&path, toml).expect("write the scene file");
-    let file = SceneFile::parse(toml, &path).expect("a valid scene file");
+    load_file_both(&SceneFile::parse(toml, &path).expect("a valid scene file"), &path)
+}
+
+/// `file` loaded with instances flattened and kept. The kept scene holds the placed corners
+/// of about half its instances (a memory limit whose budget for them is half the flattened
+/// triangles' corners), so that both ways of reading a triangle are tested.
+fn load_file_both(file: &SceneFile, path: &std::path::Path) -> (Scene, Scene) {
     let load =
-        |keep| Scene::load_with(&file, &path, LoadOptions { memory_limit: None, keep }).expect("loads");
-    (load(KeepInstances::Never), load(KeepInstances::Always))
+        |limit, keep| Scene::load_with(file, path, LoadOptions { memory_limit: limit, keep }).expect("loads");
+    let flat = load(None, KeepInstances::Never);
+    // The budget is an eighth of the limit; a triangle's corners take 36 bytes.
+    let kept = load(Some(8 * 36 * flat.stats.triangles / 2), KeepInstances::Always);
+    let placed = &kept.instanced.as_ref().expect("instances kept").placed;
+    let held = placed.iter().filter(|p| p.corners_at.is_some()).count();
+    let both = held > 0 && held < placed.len();
+    assert!(both || placed.len() < 2, "{held} of {} instances hold their corners", placed.len());
+    (flat, kept)
 }
 
 /// Casts `rays` random rays from around the camera's view and shadow rays between hits, in
@@ -346,9 +359,7 @@ fn metal_rough_spheres_kept_answers_as_flattened() {
     let path = root.join("scenes/gltf/metal-rough-spheres.toml");
     let text = std::fs::read_to_string(&path).expect("the scene file");
     let file = SceneFile::parse(&text, &path).expect("a valid scene file");
-    let load =
-        |keep| Scene::load_with(&file, &path, LoadOptions { memory_limit: None, keep }).expect("loads");
-    let (flat, kept) = (load(KeepInstances::Never), load(KeepInstances::Always));
+    let (flat, kept) = load_file_both(&file, &path);
     let hits = same_answers(&flat, &kept, 20_000, 0.05);
     assert!(hits > 2_000, "{hits} hits");
 }

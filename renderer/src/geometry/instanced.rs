@@ -48,6 +48,8 @@ pub struct Placed {
     /// Its transform has no usable inverse (nearly singular): its triangles are all tested,
     /// without its mesh's tree.
     pub brute: bool,
+    /// Where its placed corners start in [`InstancedScene::corners`], if they are held.
+    pub corners_at: Option<usize>,
 }
 
 /// The kept instances of a scene (see the module doc).
@@ -58,6 +60,9 @@ pub struct InstancedScene {
     pub tlas: Bvh2,
     /// World position of the render-space origin.
     pub offset: DVec3,
+    /// Placed corners held for some instances (in their mesh's slot order), so that a test
+    /// reads them instead of placing them: the same bits, within a memory budget.
+    pub corners: Vec<[Vec3; 3]>,
 }
 
 /// A triangle of a kept instance, placed: its render-space corners, primitive and corners'
@@ -74,12 +79,11 @@ impl InstancedScene {
     /// bits ([`Placing::position`]'s arithmetic on the same f64 corners, less the offset).
     #[inline(always)]
     pub fn render_triangle(&self, p: &Placed, slot: usize) -> Triangle {
-        let mut c = self.meshes[p.mesh as usize].points[slot];
-        if p.placing.mirrored() {
-            c.swap(1, 2);
-        }
-        let v = c.map(|x| Vec3A::from((p.placing.point(x) - self.offset).as_vec3()));
-        Triangle { v0: v[0], v1: v[1], v2: v[2] }
+        let v = match p.corners_at {
+            Some(at) => self.corners[at + slot],
+            None => place_corners(&self.meshes[p.mesh as usize], p, self.offset, slot),
+        };
+        Triangle { v0: v[0].into(), v1: v[1].into(), v2: v[2].into() }
     }
 
     /// A box in render space holding the placed corners (f32, as [`Self::render_triangle`]
@@ -198,6 +202,18 @@ impl InstancedScene {
         }
         best
     }
+}
+
+/// The render-space corners of the triangle at `slot` of `p`'s mesh tree: the flattened
+/// scene's bits ([`Placing::position`]'s arithmetic on the same f64 corners, less the
+/// render offset, rounded to f32; the last two swapped under a mirroring transform).
+#[inline(always)]
+pub fn place_corners(mesh: &StoredMesh, p: &Placed, offset: DVec3, slot: usize) -> [Vec3; 3] {
+    let mut c = mesh.points[slot];
+    if p.placing.mirrored() {
+        c.swap(1, 2);
+    }
+    c.map(|x| (p.placing.point(x) - offset).as_vec3())
 }
 
 /// Where the ray enters `b` (its own parameter, f64, at least its tmin), or `None` if it

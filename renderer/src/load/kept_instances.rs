@@ -3,7 +3,7 @@
 //! one tree per mesh and set of kept triangles, and the top tree over the instances.
 
 use super::precision_tally::PrecisionTally;
-use crate::geometry::instanced::{InstancedScene, Placed, StoredMesh};
+use crate::geometry::instanced::{InstancedScene, Placed, StoredMesh, place_corners};
 use crate::geometry::instances::{Placement, Placing, PrimitiveData};
 use crate::geometry::precision::is_degenerate;
 use crate::geometry::scene::{bvh_params, cover_depth};
@@ -38,7 +38,7 @@ pub(super) fn passes(placements: &[Placement], offset: DVec3) -> Vec<Pass> {
 pub(super) fn build(
     placements: Vec<Placement>,
     passes: Vec<Pass>,
-    offset: DVec3,
+    (offset, corner_budget): (DVec3, u64),
     tally: &mut PrecisionTally,
 ) -> (Option<InstancedScene>, u64) {
     let mut kept_triangles = 0;
@@ -86,6 +86,7 @@ pub(super) fn build(
             instance: pl.instance,
             bounds: pass.bounds,
             brute,
+            corners_at: None,
         });
     }
     if placed.is_empty() {
@@ -99,7 +100,38 @@ pub(super) fn build(
     let params = obvhs::BvhBuildParams { max_prims_per_leaf: 1, ..bvh_params() };
     let mut tlas = obvhs::bvh2::builder::build_bvh2(&boxes, params, &mut Duration::default());
     cover_depth(&mut tlas);
-    (Some(InstancedScene { meshes, placed, tlas, offset }), kept_triangles)
+    let corners = hold_corners(&meshes, &mut placed, offset, corner_budget);
+    (Some(InstancedScene { meshes, placed, tlas, offset, corners }), kept_triangles)
+}
+
+/// The placed corners of the first instances whose corners fit in `budget` bytes, in order
+/// (each instance's `corners_at` set), placed in parallel.
+fn hold_corners(meshes: &[StoredMesh], placed: &mut [Placed], offset: DVec3, budget: u64) -> Vec<[Vec3; 3]> {
+    const BYTES: u64 = std::mem::size_of::<[Vec3; 3]>() as u64;
+    let mut total = 0usize;
+    for p in placed.iter_mut() {
+        let n = meshes[p.mesh as usize].slots.len();
+        if (total + n) as u64 * BYTES > budget {
+            break;
+        }
+        p.corners_at = Some(total);
+        total += n;
+    }
+    let mut corners = vec![[Vec3::ZERO; 3]; total];
+    let mut rest: &mut [[Vec3; 3]] = &mut corners;
+    let mut jobs = Vec::new();
+    for p in placed.iter().filter(|p| p.corners_at.is_some()) {
+        let (mine, tail) = rest.split_at_mut(meshes[p.mesh as usize].slots.len());
+        jobs.push((p, mine));
+        rest = tail;
+    }
+    jobs.into_par_iter().for_each(|(p, out)| {
+        let mesh = &meshes[p.mesh as usize];
+        for (slot, c) in out.iter_mut().enumerate() {
+            *c = place_corners(mesh, p, offset, slot);
+        }
+    });
+    corners
 }
 
 /// One instance's pass over its triangles: the flattened build's rules, in its order.

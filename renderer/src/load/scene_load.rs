@@ -38,6 +38,16 @@ pub enum KeepInstances {
     Always,
 }
 
+/// Bytes of placed corners held for kept instances ([`crate::geometry::instanced::InstancedScene::corners`]): a
+/// test then reads 36 bytes instead of placing three corners. metal-rough-spheres kept,
+/// `traced` at N = 1024, 320x240: render 1.19x the flattened scene's (2.29 / 1.91 s),
+/// where placing every corner took 1.5-1.6x (docs/notes/2026-11-28-instances.md). At most
+/// an eighth of the memory limit and 1 GiB: a kept scene stays a small part of the machine
+/// (10,000 boulders would hold 29 GB).
+fn corner_budget(memory_limit: Option<u64>) -> u64 {
+    memory_limit.map_or(1 << 30, |m| m / 8).min(1 << 30)
+}
+
 impl Scene {
     /// Loads a scene file: models, quads, camera, lights; builds the BVH.
     pub fn load(file: &SceneFile, scene_path: &Path) -> Result<Scene, SceneError> {
@@ -124,6 +134,7 @@ impl Scene {
             meshes,
             instances,
             placements,
+            memory_limit,
             ..
         } = geometry;
         let mut tris = Vec::with_capacity(source.len());
@@ -132,8 +143,12 @@ impl Scene {
         let mut precision = PrecisionTally::default();
         precision.zero_area = degenerate;
         // Kept instances first: the loader placed them before any quad or soup.
-        let (instanced, kept_triangles) =
-            super::kept_instances::build(placements, passes, world_offset, &mut precision);
+        let (instanced, kept_triangles) = super::kept_instances::build(
+            placements,
+            passes,
+            (world_offset, corner_budget(memory_limit)),
+            &mut precision,
+        );
         for s in &source {
             let Some(face) = precision.keep(s.p, world_offset) else { continue };
             let p = s.p.map(|p| (p - world_offset).as_vec3());

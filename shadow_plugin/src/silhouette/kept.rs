@@ -323,14 +323,17 @@ impl<'a> InMesh<'a> {
     }
 
     /// How far (render space) the placed corners' f32 rounding can move a face's plane at
-    /// distance `far` from it, for faces of 1 / altitude `thin` (mesh space): a point's
-    /// barycentric coordinates on the face are at most 1 + 4 far / h in magnitude, h at
-    /// least the mesh's altitude over `shrink`. `None` where the bound is not small (never
-    /// on meshes of sane triangles; NaN too).
+    /// distance `far` from it, for faces of 1 / altitude `thin` (mesh space; h, the
+    /// render-space altitude, is at least the mesh's over `shrink`). Each corner moves by at
+    /// most d = `rounding`: at a point whose projection on the plane has barycentric
+    /// coordinates of magnitudes summing to at most 1 + 4 far / h, the plane moves by d
+    /// times that, plus far (1 - cos tilt) for the normal's tilt (at most 4 d / h): under
+    /// d (1 + 4.8 far / h) while d / h <= 0.05; 8 d (1 + far / h) is over it. `None` where
+    /// d / h may exceed 0.05 (the bound is not small; NaN too).
     fn tilt(&self, thin: f64, far: f64) -> Option<f64> {
         let c = self.w.carry;
         let tilt = thin * c.shrink;
-        (tilt * c.rounding < 1e-3).then_some(8.0 * c.rounding * (1.0 + far * tilt))
+        (tilt * c.rounding <= 0.05).then_some(8.0 * c.rounding * (1.0 + far * tilt))
     }
 
     /// Whether a node's faces have the whole ball of origins on one side (their edges weigh
