@@ -119,7 +119,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
         progress.phase("loading the scene and building the BVH", 0);
         // Only methods that trace through the scene's queries render kept instances.
         let keep = args.keep_instances.unwrap_or(match methods::registered(plan.shadows.name()) {
-            Some(m) if m.traces_kept_instances => KeepInstances::WhenNeeded,
+            Some(m) if m.traces_kept_instances => KeepInstances::Shared,
             _ => KeepInstances::Never,
         });
         let options = LoadOptions { memory_limit: memory::available_bytes(), keep };

@@ -32,8 +32,10 @@ pub enum KeepInstances {
     /// Flatten every placement (what every shadow method but `traced` and `none` needs).
     #[default]
     Never,
-    /// Keep them where the flattened scene would not fit in the memory limit.
-    WhenNeeded,
+    /// Keep the placements of a mesh whose copies beyond the first would hold at least
+    /// `gltf_load::SHARED_TRIANGLES` flattened (flatten the rest), and every placement where
+    /// the flattened scene would not fit in the memory limit.
+    Shared,
     /// Keep them always (tests: the kept scene against the flattened one).
     Always,
 }
@@ -64,6 +66,7 @@ impl Scene {
         let mut geometry = Geometry {
             memory_limit: options.memory_limit,
             keep_instances: options.keep == KeepInstances::Always,
+            keep_shared: options.keep == KeepInstances::Shared,
             may_keep_instances: options.keep != KeepInstances::Never,
             ..Geometry::default()
         };

@@ -69,6 +69,10 @@ pub struct Geometry {
     /// `may_keep_instances` allows it (or by a caller).
     pub keep_instances: bool,
     pub may_keep_instances: bool,
+    /// Whether to keep the placements of the current file's meshes in `shared` (those whose
+    /// copies beyond the first hold at least [`SHARED_TRIANGLES`]).
+    pub keep_shared: bool,
+    pub shared: std::collections::HashSet<MeshKey>,
     /// Bytes the load may use at its peak: a file whose triangles, once every instance is
     /// flattened, would need more ([`BYTES_PER_TRIANGLE`] each) is refused before its
     /// buffers are read. `None`: no limit.
@@ -112,7 +116,7 @@ pub fn load_gltf(
         None => fail("", format!("cannot load glTF: {e}")),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
-    refuse_beyond_memory(path, &gltf.document, geometry)?;
+    plan_instances(path, &gltf.document, geometry)?;
     geometry.warnings.extend(uris_out_of_folder(path, base, &gltf.document));
     let buffers = load_buffers(path, base, &gltf.document, gltf.blob.clone())?;
     let doc = &gltf.document;
@@ -131,6 +135,33 @@ pub fn load_gltf(
     load_nodes(&file, &scene, model_from_file, geometry)
 }
 
+/// A mesh placed by several nodes is kept unflattened (where the method traces kept
+/// instances) when its copies beyond the first would hold at least this many triangles
+/// flattened (about 120 MB). metal-rough-spheres (97 copies of a 10.6k-triangle sphere, 1.0 M):
+/// load + BVH 0.44 -> 0.10 s, peak memory 375 -> 54 MB, `traced`'s render 1.19x
+/// (docs/notes/2026-11-28-instances.md). Below it the copies cost the flattened scene under
+/// about 0.1 s and 120 MB, less than a render's share of the kept walk's extra cost
+/// (glass-vase-flowers: one 7k-triangle mesh placed twice stays flattened).
+pub const SHARED_TRIANGLES: u64 = 1 << 18;
+
+/// What identifies a mesh's geometry: its triangle primitives' position and index accessors
+/// and modes. Files repeat one geometry in meshes that differ only in material
+/// (metal-rough-spheres: 98 meshes, one sphere).
+pub type MeshKey = Vec<(usize, Option<usize>, u32)>;
+
+/// [`MeshKey`] of `mesh`.
+fn mesh_key(mesh: &gltf::Mesh) -> MeshKey {
+    mesh.primitives()
+        .filter_map(|p| {
+            Some((
+                p.get(&Semantic::Positions)?.index(),
+                p.indices().map(|i| i.index()),
+                p.mode().as_gl_enum(),
+            ))
+        })
+        .collect()
+}
+
 /// The triangles a primitive holds, from its accessors' declared counts (nothing read).
 fn primitive_triangles(prim: &gltf::Primitive) -> u64 {
     let n = prim.indices().or_else(|| prim.get(&Semantic::Positions)).map_or(0, |a| a.count() as u64);
@@ -141,17 +172,31 @@ fn primitive_triangles(prim: &gltf::Primitive) -> u64 {
     }
 }
 
-/// What the default scene of `doc` places: (triangles once every instance is flattened,
-/// instances: nodes with a mesh and their `EXT_mesh_gpu_instancing` copies, triangles of the
-/// distinct meshes), from the node tree and the
-/// accessors' declared counts, before any buffer is read. A node reached twice is counted
-/// once (the load refuses it).
-fn planned_triangles(doc: &gltf::Document) -> (u64, u64, u64) {
-    let Some(scene) = doc.default_scene().or_else(|| doc.scenes().next()) else { return (0, 0, 0) };
+/// What the default scene of `doc` places, from the node tree and the accessors' declared
+/// counts, before any buffer is read. A node reached twice is counted once (the load refuses
+/// it).
+#[derive(Default)]
+struct Plan {
+    /// Triangles once every instance is flattened.
+    flattened: u64,
+    /// Instances: nodes with a mesh and their `EXT_mesh_gpu_instancing` copies.
+    placed: u64,
+    /// Triangles of the distinct meshes ([`MeshKey`]).
+    unique: u64,
+    /// The meshes whose copies beyond the first hold at least [`SHARED_TRIANGLES`], the
+    /// triangles of those copies, and their instances.
+    shared: std::collections::HashSet<MeshKey>,
+    shared_copies: u64,
+    shared_placed: u64,
+}
+
+fn plan(doc: &gltf::Document) -> Plan {
+    let mut plan = Plan::default();
+    let Some(scene) = doc.default_scene().or_else(|| doc.scenes().next()) else { return plan };
     let mut stack: Vec<gltf::Node> = scene.nodes().collect();
     let mut visited = std::collections::HashSet::new();
-    let mut meshes = std::collections::HashSet::new();
-    let (mut flattened, mut placed, mut unique) = (0u64, 0u64, 0u64);
+    // Per mesh: its triangles and its instances.
+    let mut meshes: HashMap<MeshKey, (u64, u64)> = HashMap::new();
     while let Some(node) = stack.pop() {
         if !visited.insert(node.index()) {
             continue;
@@ -159,31 +204,43 @@ fn planned_triangles(doc: &gltf::Document) -> (u64, u64, u64) {
         if let Some(mesh) = node.mesh() {
             let n: u64 = mesh.primitives().map(|p| primitive_triangles(&p)).sum();
             let copies = gpu_instancing::planned_count(doc, &node);
-            flattened = flattened.saturating_add(n.saturating_mul(copies));
-            placed += copies;
-            if meshes.insert(mesh.index()) {
-                unique = unique.saturating_add(n);
-            }
+            plan.flattened = plan.flattened.saturating_add(n.saturating_mul(copies));
+            plan.placed += copies;
+            let uses = meshes.entry(mesh_key(&mesh)).or_insert((n, 0));
+            uses.1 += copies;
         }
         stack.extend(node.children());
     }
-    (flattened, placed, unique)
+    for (key, (n, uses)) in meshes {
+        plan.unique = plan.unique.saturating_add(n);
+        let copies = n.saturating_mul(uses - 1);
+        if copies >= SHARED_TRIANGLES {
+            plan.shared.insert(key);
+            plan.shared_copies = plan.shared_copies.saturating_add(copies);
+            plan.shared_placed += uses;
+        }
+    }
+    plan
 }
 
-/// Refuses `path` when the scene's triangles so far and the file's, flattened, would need
-/// more than `geometry.memory_limit` ([`BYTES_PER_TRIANGLE`] each): one line that says how
-/// much, before the memory is spent (10,000 copies of an 82k-triangle mesh in a 3.5 MB file
-/// were killed by the OOM killer after 82 s at 23.7 GB).
-fn refuse_beyond_memory(
-    path: &Path,
-    doc: &gltf::Document,
-    geometry: &mut Geometry,
-) -> Result<(), SceneError> {
+/// Chooses which of `doc`'s placements to keep unflattened ([`Geometry::shared`], or every
+/// one where the flattened scene would not fit), and refuses `path` when even kept they
+/// would take the scene past `geometry.memory_limit` ([`BYTES_PER_TRIANGLE`] a triangle,
+/// [`BYTES_PER_INSTANCE`] an instance): one line that says how much, before the memory is
+/// spent (10,000 copies of an 82k-triangle mesh in a 3.5 MB file were killed by the OOM
+/// killer after 82 s at 23.7 GB).
+fn plan_instances(path: &Path, doc: &gltf::Document, geometry: &mut Geometry) -> Result<(), SceneError> {
+    let plan = plan(doc);
+    let (shared_copies, shared_placed) =
+        if geometry.keep_shared { (plan.shared_copies, plan.shared_placed) } else { (0, 0) };
+    geometry.shared = if geometry.keep_shared { plan.shared } else { Default::default() };
     let Some(limit) = geometry.memory_limit else { return Ok(()) };
-    let (flattened, placed, unique) = planned_triangles(doc);
+    let Plan { flattened, placed, unique, .. } = plan;
     let loaded = geometry.triangles.len() as u64;
-    let total = loaded.saturating_add(flattened);
-    let need = total.saturating_mul(BYTES_PER_TRIANGLE);
+    let need = loaded
+        .saturating_add(flattened - shared_copies)
+        .saturating_mul(BYTES_PER_TRIANGLE)
+        .saturating_add(shared_placed * BYTES_PER_INSTANCE);
     if geometry.keep_instances || need <= limit {
         return Ok(());
     }
@@ -194,6 +251,7 @@ fn refuse_beyond_memory(
         geometry.keep_instances = true;
         return Ok(());
     }
+    let total = loaded.saturating_add(flattened);
     let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
     let size = |b: u64| {
         if b < 1 << 30 { format!("{} MiB", b.div_ceil(1 << 20)) } else { format!("{:.1} GiB", gib(b)) }
@@ -202,11 +260,12 @@ fn refuse_beyond_memory(
         format!(" (with each mesh stored once, {})", size(kept))
     } else {
         format!(
-            "; `traced` and `none` can trace each mesh stored once ({}), the chosen method needs the \
-             triangles flattened",
+            "; `traced`, `silhouette` and `none` can trace each mesh stored once ({}), the chosen \
+             method needs the triangles flattened",
             size(kept)
         )
     };
+    let need = total.saturating_mul(BYTES_PER_TRIANGLE);
     Err(SceneError::new(
         path,
         "nodes",
@@ -352,9 +411,6 @@ fn load_buffers(
     Ok(buffers)
 }
 
-/// A mesh's identity at load: (POSITION accessor, indices accessor, mode) per primitive.
-type MeshKey = Vec<(usize, Option<usize>, u32)>;
-
 /// What a mesh's read primitives depend on: its [`MeshKey`], and per primitive its NORMAL
 /// accessor and the TEXCOORD accessor its material reads.
 type ReadKey = (MeshKey, Vec<(Option<usize>, Option<usize>)>);
@@ -421,16 +477,8 @@ fn load_nodes(
             // Keyed by the accessors its triangles are read from, not by the mesh: files
             // repeat one geometry in meshes that differ only in material (metal-rough-spheres:
             // 98 meshes, one sphere).
-            let key: Vec<(usize, Option<usize>, u32)> = mesh
-                .primitives()
-                .filter_map(|p| {
-                    Some((
-                        p.get(&Semantic::Positions)?.index(),
-                        p.indices().map(|i| i.index()),
-                        p.mode().as_gl_enum(),
-                    ))
-                })
-                .collect();
+            let key = mesh_key(&mesh);
+            let keep = geometry.keep_instances || geometry.shared.contains(&key);
             let known = meshes.get(&key).copied();
             let mut topology = known.is_none().then(TopologyBuilder::default);
             let mesh_id = known.unwrap_or(geometry.meshes.len() as u32);
@@ -438,7 +486,7 @@ fn load_nodes(
             // 82k triangles each).
             // Their normals and texture coordinates too: meshes sharing positions may differ there.
             let read_key: ReadKey = (key.clone(), mesh.primitives().map(|p| attribute_key(&p)).collect());
-            let cached = if geometry.keep_instances { kept.get(&read_key).cloned() } else { None };
+            let cached = if keep { kept.get(&read_key).cloned() } else { None };
             let mut read = Vec::new();
             if cached.is_none() {
                 for prim in mesh.primitives() {
@@ -450,7 +498,7 @@ fn load_nodes(
                 geometry.meshes.push(t.finish());
             }
             let placements = gpu_instancing::placements(file, &node, world)?;
-            if geometry.keep_instances {
+            if keep {
                 let prims: Vec<gltf::Primitive> = mesh.primitives().filter(has_triangles).collect();
                 let materials: std::sync::Arc<[u32]> = prims.iter().map(|p| material_id(file, p)).collect();
                 let data = match cached {
