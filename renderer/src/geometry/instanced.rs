@@ -135,10 +135,13 @@ impl InstancedScene {
         mut test: impl FnMut(usize, usize, f32) -> f32,
     ) -> Option<(f32, usize, usize)> {
         let mut best: Option<(f32, usize, usize)> = None;
+        // The ray in f64, once (each instance it reaches reads it).
+        let (o, d) = (Vec3::from(ray.origin).as_dvec3(), Vec3::from(ray.direction).as_dvec3());
+        let inv = d.recip();
         let mut top = |r: &Ray, leaf: usize| -> f32 {
             let pi = self.tlas.primitive_indices[leaf] as usize;
             let p = &self.placed[pi];
-            let Some(start) = entry(&p.bounds, r) else { return f32::INFINITY };
+            let Some(start) = entry(&p.bounds, (o, d, inv), r) else { return f32::INFINITY };
             let mut found = f32::INFINITY;
             let world_tmax = r.tmax;
             // The test takes the world ray's own range, not the moved ray's (its f32 rounding
@@ -168,17 +171,19 @@ impl InstancedScene {
             // with a unit direction there: obvhs clamps a direction component under f32's
             // epsilon, which a direction shrunk by a large scale reaches long before a world
             // one (rays along an axis missed a 100x instance's floor).
-            let (o, d) = (Vec3::from(r.origin).as_dvec3(), Vec3::from(r.direction).as_dvec3());
             let o_mesh = p.to_mesh.transform_point3(o + start * d);
             let d_mesh = p.to_mesh.transform_vector3(d);
             let len = d_mesh.length();
             let (lo, hi) = ((r.tmin as f64 - start).max(0.0) * len, (r.tmax as f64 - start) * len);
-            let local = crate::geometry::watertight::walkable(Ray::new(
-                o_mesh.as_vec3().into(),
-                (d_mesh / len).as_vec3().into(),
-                lo as f32,
-                hi as f32,
-            ));
+            let direction = (d_mesh * len.recip()).as_vec3().into();
+            // `walkable` gives the inverse direction (obvhs's `Ray::new` would compute one too).
+            let local = crate::geometry::watertight::walkable(Ray {
+                origin: o_mesh.as_vec3().into(),
+                direction,
+                inv_direction: direction,
+                tmin: lo as f32,
+                tmax: hi as f32,
+            });
             let mut inner = |_: &Ray, slot: usize| -> f32 {
                 let t = consider(slot);
                 if t.is_finite() { ((t as f64 - start) * len) as f32 } else { f32::INFINITY }
@@ -219,9 +224,7 @@ pub fn place_corners(mesh: &StoredMesh, p: &Placed, offset: DVec3, slot: usize) 
 /// Where the ray enters `b` (its own parameter, f64, at least its tmin), or `None` if it
 /// misses it within its range. Grown by a relative 1e-9 of the distances (f64 rounds them
 /// at 1e-16): the caller only starts the mesh's walk there.
-fn entry(b: &Aabb, r: &Ray) -> Option<f64> {
-    let o = Vec3::from(r.origin).as_dvec3();
-    let d = Vec3::from(r.direction).as_dvec3();
+fn entry(b: &Aabb, (o, d, inv): (DVec3, DVec3, DVec3), r: &Ray) -> Option<f64> {
     let (lo, hi) = (Vec3::from(b.min).as_dvec3(), Vec3::from(b.max).as_dvec3());
     let (mut t0, mut t1) = (r.tmin as f64, r.tmax as f64);
     for k in 0..3 {
@@ -231,7 +234,7 @@ fn entry(b: &Aabb, r: &Ray) -> Option<f64> {
             }
             continue;
         }
-        let (a, b) = ((lo[k] - o[k]) / d[k], (hi[k] - o[k]) / d[k]);
+        let (a, b) = ((lo[k] - o[k]) * inv[k], (hi[k] - o[k]) * inv[k]);
         let (a, b) = if a < b { (a, b) } else { (b, a) };
         let slack = 1e-9 * (a.abs() + b.abs());
         t0 = t0.max(a - slack);
