@@ -4,6 +4,7 @@
 
 pub mod config;
 pub mod gltf_load;
+mod instance_proof;
 mod kept_instances;
 mod precision_tally;
 pub mod scene_load;

@@ -26,7 +26,7 @@ pub(crate) struct PrecisionTally {
 /// The intersector's rounding of a hit's distance, as a fraction of its triangle's reach from
 /// the ray's origin (`watertight::t_rounding` is ~150 f64 units for a well-shaped triangle;
 /// more for slivers): hits nearer than that are not found.
-const INTERSECTOR_ROUNDING: f64 = 200.0 * f64::EPSILON * 0.5;
+pub(super) const INTERSECTOR_ROUNDING: f64 = 200.0 * f64::EPSILON * 0.5;
 
 impl PrecisionTally {
     /// The unit face normal (render space) of the world-space triangle `p` if f32 can hold
@@ -66,6 +66,15 @@ impl PrecisionTally {
 
     /// Adds `other`'s counts, as if its triangles had been kept after this one's (the first
     /// extreme wins a tie, as in one pass).
+    /// Whether nothing is counted.
+    pub(crate) fn is_clean(&self) -> bool {
+        self.zero_area == 0
+            && self.collapsed == 0
+            && self.out_of_range == 0
+            && self.imprecise == 0
+            && self.oversized == 0
+    }
+
     pub(crate) fn merge(&mut self, other: &PrecisionTally) {
         if other.collapsed > 0 && (self.collapsed == 0 || other.collapsed_nearest < self.collapsed_nearest) {
             self.collapsed_nearest = other.collapsed_nearest;
