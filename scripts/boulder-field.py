@@ -10,7 +10,10 @@ about Y and uniform scale in 0.6..1.4. Everything comes from a fixed seed: the s
 on every run. It exercises a renderer that flattens instances into world triangles
 (N x 81,920 of them) and shadow methods whose cost grows with smooth-mesh edges.
 
-    python3 scripts/boulder-field.py N OUT.glb     (scenes/stress/boulder-field.toml)
+    python3 scripts/boulder-field.py N OUT.glb [LEVELS]   (scenes/stress/boulder-field.toml)
+
+LEVELS (default 6) sets the icosphere's subdivisions: 4 gives 5,120 triangles a boulder
+(scenes/models/boulder-field-400.glb, the bench's instanced scene, is `400 ... 4`).
 """
 import json
 import math
@@ -65,7 +68,8 @@ def boulder(levels=6, radius=0.5, amp=0.15):
 def main():
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 100
     out = sys.argv[2] if len(sys.argv) > 2 else "out/boulder-field-%d.glb" % n
-    pos, nrm, faces = boulder()
+    levels = int(sys.argv[3]) if len(sys.argv) > 3 else 6
+    pos, nrm, faces = boulder(levels)
     # float32 round trip so min/max match the stored bytes exactly
     pos = [struct.unpack("<3f", struct.pack("<3f", *p)) for p in pos]
     idx_fmt, idx_type = ("<H", 5123) if len(pos) < 65536 else ("<I", 5125)

@@ -206,13 +206,16 @@ fn instanced_meshes_agree_with_the_bvh() {
 }
 
 /// The same instanced meshes kept unflattened (each mesh's edges found once in its own
-/// space, placed per instance as the walk meets them): every settled sample agrees with the
-/// BVH, the answers equal tracing the same samples, and the instances are counted, not
-/// traced whole (under 5% of the points meet one the counting leaves out).
+/// space, placed per instance as the walk meets them), and a field of 400 boulders: every
+/// settled sample agrees with the BVH, the answers equal tracing the same samples, and the
+/// instances are counted, not traced whole (under 5% of the points meet one the counting
+/// leaves out).
 #[test]
 fn kept_instances_agree_with_the_bvh() {
     let dir = TempDir::new("silhouette-kept-instances");
-    let scenes = soups::instanced_soups(&dir, 43);
+    let mut scenes = soups::instanced_soups(&dir, 43);
+    // 400 smooth 5k-triangle boulders, the bench's instanced scene (kept by default).
+    scenes.push(root().join("scenes/stress/boulder-field-400.toml"));
     let keys = [
         "checked_settled",
         "checked_wrong",
