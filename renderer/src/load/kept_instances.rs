@@ -45,13 +45,17 @@ pub(super) fn passes(placements: &[Placement], offset: DVec3) -> Vec<Pass> {
         .map(|p| {
             let m = &extremes[meshes[&(Arc::as_ptr(&p.primitives) as usize)]];
             match instance_proof::prove(p, m, offset) {
-                Some(proven) => Pass {
-                    dropped: Vec::new(),
-                    kept: proven.kept,
-                    bounds: proven.bounds,
-                    tally: PrecisionTally::default(),
-                    world: proven.world,
-                },
+                Some(proven) => {
+                    let mut tally = PrecisionTally::default();
+                    tally.zero_area = proven.dropped.len() as u64;
+                    Pass {
+                        dropped: proven.dropped,
+                        kept: proven.kept,
+                        bounds: proven.bounds,
+                        tally,
+                        world: proven.world,
+                    }
+                }
                 None => pass(p, offset),
             }
         })
