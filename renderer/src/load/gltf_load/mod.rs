@@ -138,7 +138,7 @@ pub fn load_gltf(
 /// A mesh placed by several nodes is kept unflattened (where the method traces kept
 /// instances) when its copies beyond the first would hold at least this many triangles
 /// flattened (about 120 MB). metal-rough-spheres (97 copies of a 10.6k-triangle sphere, 1.0 M):
-/// load + BVH 0.44 -> 0.10 s, peak memory 375 -> 54 MB, `traced`'s render 1.19x
+/// load + BVH 0.46 -> 0.04 s, peak memory 375 -> 54 MB, `traced`'s render 1.19x
 /// (docs/notes/2026-11-28-instances.md). Below it the copies cost the flattened scene under
 /// about 0.1 s and 120 MB, less than a render's share of the kept walk's extra cost
 /// (glass-vase-flowers: one 7k-triangle mesh placed twice stays flattened).
