@@ -101,18 +101,49 @@ fn receiver_box(
 /// The casters' nearest depth: that of the nearest vertex in front of the light whose image
 /// could reach a receiver's filter region (conservatively, within the receivers' box `lo..hi`
 /// grown by the light's half size / z); the receivers' nearest depth `z_recv_min` when no
-/// vertex is nearer.
+/// vertex is nearer. Kept instances' vertices are placed as the flattened scene holds them;
+/// an instance whose bounds lie wholly deeper than the nearest found so far is skipped (a
+/// minimum: the same value in any order).
 fn caster_z_near(scene: &Scene, frame: &LightFrame, lo: Vec2, hi: Vec2, z_recv_min: f32) -> f32 {
     let mut caster_z_near = z_recv_min;
+    let consider = |v: Vec3, caster_z_near: &mut f32| {
+        let p = frame.light_from_world(v);
+        if p.z > frame.depth_tolerance(v, Vec3::ZERO) && p.z < *caster_z_near {
+            let img = Vec2::new(p.x, p.y) / p.z;
+            let reach = frame.half_size / p.z;
+            if img.cmpge(lo - reach).all() && img.cmple(hi + reach).all() {
+                *caster_z_near = p.z;
+            }
+        }
+    };
     for t in &scene.triangles {
         for v in [t.v0, t.v1, t.v2] {
-            let p = frame.light_from_world(Vec3::from(v));
-            if p.z > frame.depth_tolerance(Vec3::from(v), Vec3::ZERO) && p.z < caster_z_near {
-                let img = Vec2::new(p.x, p.y) / p.z;
-                let reach = frame.half_size / p.z;
-                if img.cmpge(lo - reach).all() && img.cmple(hi + reach).all() {
-                    caster_z_near = p.z;
-                }
+            consider(Vec3::from(v), &mut caster_z_near);
+        }
+    }
+    let Some(inst) = &scene.instanced else { return caster_z_near };
+    for p in &inst.placed {
+        // The box's least depth (f64; the f32 depths of its vertices round by far less than
+        // the margin).
+        let (bmin, bmax) = (Vec3::from(p.bounds.min).as_dvec3(), Vec3::from(p.bounds.max).as_dvec3());
+        let (o, z) = (frame.origin.as_dvec3(), frame.z.as_dvec3());
+        let nearest = (0..8)
+            .map(|k| {
+                let c = glam::DVec3::new(
+                    if k & 1 == 0 { bmin.x } else { bmax.x },
+                    if k & 2 == 0 { bmin.y } else { bmax.y },
+                    if k & 4 == 0 { bmin.z } else { bmax.z },
+                );
+                (c - o).dot(z) - 1e-5 * (c - o).abs().element_sum()
+            })
+            .fold(f64::INFINITY, f64::min);
+        if nearest > caster_z_near as f64 {
+            continue;
+        }
+        for slot in 0..inst.meshes[p.mesh as usize].slots.len() {
+            let t = inst.render_triangle(p, slot);
+            for v in [t.v0, t.v1, t.v2] {
+                consider(Vec3::from(v), &mut caster_z_near);
             }
         }
     }

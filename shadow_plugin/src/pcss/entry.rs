@@ -9,6 +9,8 @@ impl MethodEntry for PcssParams {
     const KEYS_DOC: &'static str = include_str!("keys.md");
     const COLOUR: [u8; 3] = [44, 160, 44];
     const BENCH_RANK: u32 = 30;
+    /// Its map is ray cast, its frustum fitted over kept instances' placed vertices too.
+    const TRACES_KEPT_INSTANCES: bool = true;
 
     /// The defaults over PCF tap counts.
     fn sweep(quick: bool) -> Vec<SweepSetting> {

@@ -291,7 +291,6 @@ impl LightShadowing for Pcss {
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
-        ctx.scene.require_flattened(self.name())?;
         // The same map as depth_march's; the closed-volume layer only changes the slab
         // bottoms, which PCSS never reads, so it is not traced.
         let map = self.params.depth_map;

@@ -260,8 +260,8 @@ fn plan_instances(path: &Path, doc: &gltf::Document, geometry: &mut Geometry) ->
         format!(" (with each mesh stored once, {})", size(kept))
     } else {
         format!(
-            "; `traced`, `silhouette` and `none` can trace each mesh stored once ({}), the chosen \
-             method needs the triangles flattened",
+            "; with each mesh stored once it would need {}, but the chosen method needs every copy \
+             flattened",
             size(kept)
         )
     };
