@@ -50,6 +50,9 @@ pub struct Placed {
     pub brute: bool,
     /// Where its placed corners start in [`InstancedScene::corners`], if they are held.
     pub corners_at: Option<usize>,
+    /// A bound on the f64 rounding of a placed corner before its f32 rounding
+    /// ([`Placing::rounding`]).
+    pub world_rounding: f64,
 }
 
 /// The kept instances of a scene (see the module doc).
@@ -89,13 +92,13 @@ impl InstancedScene {
     /// A box in render space holding the placed corners (f32, as [`Self::render_triangle`]
     /// rounds them) of every mesh point in `aabb` (the mesh's space): its centre and half
     /// extent carried in f64 (`linear_abs`: the placing's linear part, entries made
-    /// positive), grown by 2^-20 of its reach for the f32 rounding.
+    /// positive), grown by 2^-20 of its reach for the f32 rounding and by the f64 one.
     #[inline]
     pub fn render_box(&self, p: &Placed, linear_abs: &DMat3, aabb: &Aabb) -> (Vec3A, Vec3A) {
         let (lo, hi) = (Vec3::from(aabb.min).as_dvec3(), Vec3::from(aabb.max).as_dvec3());
         let c = p.placing.point(0.5 * (lo + hi)) - self.offset;
         let e = *linear_abs * (0.5 * (hi - lo));
-        let grow = e + (c.abs() + e) * (1.0 / (1u64 << 20) as f64);
+        let grow = e + (c.abs() + e) * (1.0 / (1u64 << 20) as f64) + DVec3::splat(p.world_rounding);
         (Vec3A::from((c - grow).as_vec3()), Vec3A::from((c + grow).as_vec3()))
     }
 

@@ -119,6 +119,23 @@ impl Placing {
         self.affine.matrix3
     }
 
+    /// The transform's translation.
+    pub fn translation(&self) -> DVec3 {
+        self.affine.translation
+    }
+
+    /// A bound on the f64 rounding of a placed point (world space, and less a render
+    /// offset `offset`) for mesh points within `reach` of the mesh's origin (in each
+    /// coordinate): a few ulps of the terms summed. Render-space bounds alone miss it where
+    /// world coordinates dwarf the camera-relative ones (geo-referenced scenes).
+    pub fn rounding(&self, reach: f64, offset: DVec3) -> f64 {
+        let linear = self.affine.matrix3;
+        let stretch =
+            [linear.x_axis, linear.y_axis, linear.z_axis].iter().map(|c| c.abs().element_sum()).sum::<f64>();
+        8.0 * f64::EPSILON
+            * (stretch * reach + self.affine.translation.abs().max_element() + offset.abs().max_element())
+    }
+
     /// Whether the transform mirrors (its triangles' last two corners swapped).
     #[inline(always)]
     pub fn mirrored(&self) -> bool {

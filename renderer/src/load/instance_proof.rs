@@ -141,7 +141,6 @@ pub(super) fn prove(p: &Placement, m: &MeshExtremes, offset: DVec3) -> Option<Pr
     // sigma_max <= stretch, 1 / sigma_min <= shrink.
     let (stretch, shrink) = (frobenius(linear), frobenius(linear.inverse()));
     let cond = stretch * shrink;
-    // Zero area in world space: the sine over 1e-12 (`DEGENERATE_SINE`) four times over.
     // Zero area in world space where the mesh has it, and nowhere else (`DEGENERATE_SINE`
     // is 1e-12). A collinear triangle's placed sine also carries f64's rounding of its
     // corners (relative 2^-52 of the world coordinates) over its edges.
@@ -152,13 +151,15 @@ pub(super) fn prove(p: &Placement, m: &MeshExtremes, offset: DVec3) -> Option<Pr
     if !area_holds {
         return None;
     }
-    let (bounds, world) = used_bounds(p, &placing, m, offset)?;
+    let (bounds, world, distance) = used_bounds(p, &placing, m, offset)?;
     let (lo, hi) = (Vec3::from(bounds.min).as_dvec3(), Vec3::from(bounds.max).as_dvec3());
     let corner = lo.abs().max(hi.abs());
-    // f32 moves a render-space corner by at most `spacing` (per component half of it), an
-    // edge by at most `moved`.
-    let spacing = f32_spacing(corner.max_element());
-    let moved = 2.0 * spacing;
+    // A render-space corner is off by at most `error`: f32's spacing at the largest
+    // coordinate (per component half of it), and the f64 rounding of its world placing
+    // (which render space alone does not bound where world coordinates dwarf it). An edge
+    // is off by at most `moved`.
+    let error = f32_spacing(corner.max_element()) + 2.0 * placing.rounding(m.reach, offset);
+    let moved = 2.0 * error;
     // Collapsed by f32: |e1 x e2| / (|e1| + |e2|) against what the rounding can take from it.
     let longest = m.min_longest / shrink - moved;
     let ratio = m.min_cross_ratio / (shrink * shrink * stretch);
@@ -168,31 +169,34 @@ pub(super) fn prove(p: &Placement, m: &MeshExtremes, offset: DVec3) -> Option<Pr
     {
         return None;
     }
-    // Imprecise: f32's spacing at the farthest corner against the smallest size.
-    let far = corner.length();
-    let precise = f32_spacing(far) * SHAPE_PRECISION < longest * (1.0 - 1e-9);
+    // Imprecise: f32's spacing at the farthest corner (its f64 distance from the camera, as
+    // the flattened pass measures it) against the smallest size.
+    let precise = f32_spacing(distance) * SHAPE_PRECISION < longest * (1.0 - 1e-9);
     if !precise {
         return None;
     }
-    planes_clear_of_camera(p, (&placing, m), (far, spacing, shrink), offset)?;
+    planes_clear_of_camera(p, (&placing, m), (distance + moved, error, shrink), offset)?;
     let kept = m.triangles - m.flat.len() as u64;
     Some(Proven { dropped: m.flat.clone(), kept, bounds, world })
 }
 
 /// Bounds of `p`'s used vertices: render space (f32, as the flattened triangles' corners are
-/// rounded) and world space (f64); `None` where one leaves f32's range.
+/// rounded) and world space (f64), and the largest distance from the camera (f64, as the
+/// flattened pass measures a corner's); `None` where one leaves f32's range.
 fn used_bounds(
     p: &Placement,
     placing: &Placing,
     m: &MeshExtremes,
     offset: DVec3,
-) -> Option<(Aabb, (DVec3, DVec3))> {
+) -> Option<(Aabb, (DVec3, DVec3), f64)> {
     let mut bounds = Aabb::empty();
     let mut world = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    let mut distance = 0.0f64;
     for (data, used) in p.primitives.iter().zip(&m.used) {
         for &i in used {
             let w = placing.position(data.positions[i as usize]);
             world = (world.0.min(w), world.1.max(w));
+            distance = distance.max((w - offset).length());
             let r = (w - offset).as_vec3();
             if !r.is_finite() {
                 return None;
@@ -200,7 +204,7 @@ fn used_bounds(
             bounds.extend(Vec3A::from(r));
         }
     }
-    Some((bounds, world))
+    Some((bounds, world, distance))
 }
 
 /// Whether no triangle is so large against its plane's distance from the camera that the
@@ -212,20 +216,21 @@ fn used_bounds(
 fn planes_clear_of_camera(
     p: &Placement,
     (placing, m): (&Placing, &MeshExtremes),
-    (far, spacing, shrink): (f64, f64, f64),
+    (far, error, shrink): (f64, f64, f64),
     offset: DVec3,
 ) -> Option<()> {
     let thin = m.max_thin * shrink;
-    let small_tilt = thin * spacing <= 0.05;
+    let small_tilt = thin * error <= 0.05;
     if !small_tilt {
         return None;
     }
-    let tilt = 8.0 * spacing * (1.0 + far * thin);
+    let tilt = 8.0 * error * (1.0 + far * thin);
     let threshold = 100.0 * INTERSECTOR_ROUNDING * far + tilt;
     let camera = p.world.inverse().transform_point3(offset);
     // The camera's move into the mesh's space, rounded by far less than this.
-    let margin =
-        threshold * shrink + 1e-9 * (camera.abs().max_element() + shrink * offset.abs().max_element());
+    let translation = p.world.w_axis.truncate().abs().max_element();
+    let moved = 1e-9 * (camera.abs().max_element() + shrink * (offset.abs().max_element() + translation));
+    let margin = threshold * shrink + moved;
     let [nx, ny, nz, d] = &m.planes;
     let near = |k: usize| (nx[k] * camera.x + ny[k] * camera.y + nz[k] * camera.z - d[k]).abs() <= margin;
     let mut k = 0;
@@ -333,5 +338,22 @@ mod tests {
         }
         assert!(proven > total / 2, "{proven} of {total} proven");
         assert!(hard > 10, "only {hard} placements with a dropped or counted triangle");
+    }
+
+    /// A corner whose f64 distance from the camera lies just past a power of two while its
+    /// f32 render coordinates round under it: the flattened pass takes f32's spacing at the
+    /// f64 distance and counts the triangle imprecise, so the proof must not hold (found by
+    /// review: it took the spacing at the rounded bounds).
+    #[test]
+    fn the_shape_test_takes_the_spacing_at_the_f64_distance() {
+        let positions = vec![[0.0f32, 0.0, 0.0], [-2e-5, -2e-5, 0.0], [-2e-5, 0.0, 1e-5]];
+        let mesh =
+            Arc::new(vec![PrimitiveData { positions, corners: vec![[0, 1, 2]], ..Default::default() }]);
+        let world = DMat4::from_translation(DVec3::new(1.0 - 5.0 * 2f64.powi(-27), 2f64.powf(-12.5), 0.0));
+        let placement =
+            Placement { primitives: mesh.clone(), world, materials: Arc::from([0u32]), instance: 0 };
+        let full = pass_of(&placement, DVec3::ZERO);
+        assert_eq!(full.tally.imprecise, 1, "the case must be one the flattened pass counts");
+        assert!(prove(&placement, &MeshExtremes::new(&mesh), DVec3::ZERO).is_none());
     }
 }

@@ -80,10 +80,18 @@ pub(super) fn build(
     let mut groups: HashMap<(usize, Vec<u32>), u32> = HashMap::new();
     let mut meshes: Vec<(Arc<Vec<PrimitiveData>>, Vec<u32>, f64)> = Vec::new();
     let mut placed = Vec::new();
+    // Per mesh: its largest file coordinate (the f64 rounding of its placed corners).
+    let mut reaches: HashMap<usize, f64> = HashMap::new();
     for (pl, pass) in placements.iter().zip(passes) {
         if pass.kept == 0 {
             continue;
         }
+        let reach = *reaches.entry(Arc::as_ptr(&pl.primitives) as usize).or_insert_with(|| {
+            let coordinates = pl.primitives.iter().flat_map(|d| d.positions.iter().flatten());
+            coordinates.fold(0.0f64, |r, &x| r.max((x as f64).abs()))
+        });
+        let placing = Placing::new(pl.world);
+        let world_rounding = placing.rounding(reach, offset);
         let key = (Arc::as_ptr(&pl.primitives) as usize, pass.dropped);
         let next = meshes.len() as u32;
         let mesh = *groups.entry(key.clone()).or_insert_with(|| {
@@ -100,7 +108,7 @@ pub(super) fn build(
             let m = glam::DMat3::from_mat4(to_mesh).transpose();
             [m.x_axis, m.y_axis, m.z_axis].iter().map(|r| r.abs().element_sum()).fold(0.0, f64::max)
         };
-        let pad = 4.0 * f32::EPSILON as f64 * render_reach as f64 * inverse_norm;
+        let pad = (4.0 * f32::EPSILON as f64 * render_reach as f64 + world_rounding) * inverse_norm;
         // A nearly singular transform (its inverse past 1e15, or not finite) walks no tree: its
         // triangles are all tested.
         let brute = !(to_mesh.is_finite() && pad.is_finite() && inverse_norm < 1e15);
@@ -110,7 +118,8 @@ pub(super) fn build(
         }
         placed.push(Placed {
             mesh,
-            placing: Placing::new(pl.world),
+            placing,
+            world_rounding,
             to_mesh,
             materials: pl.materials.clone(),
             instance: pl.instance,

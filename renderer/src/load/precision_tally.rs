@@ -64,8 +64,6 @@ impl PrecisionTally {
         Some(face.as_vec3())
     }
 
-    /// Adds `other`'s counts, as if its triangles had been kept after this one's (the first
-    /// extreme wins a tie, as in one pass).
     /// Whether nothing is counted.
     pub(crate) fn is_clean(&self) -> bool {
         self.zero_area == 0
@@ -75,6 +73,8 @@ impl PrecisionTally {
             && self.oversized == 0
     }
 
+    /// Adds `other`'s counts, as if its triangles had been kept after this one's (the first
+    /// extreme wins a tie, as in one pass).
     pub(crate) fn merge(&mut self, other: &PrecisionTally) {
         if other.collapsed > 0 && (self.collapsed == 0 || other.collapsed_nearest < self.collapsed_nearest) {
             self.collapsed_nearest = other.collapsed_nearest;

@@ -119,3 +119,32 @@ fn finite<T: std::fmt::Debug>(values: Vec<T>, ok: impl Fn(&T) -> bool) -> Result
         Some(i) => Err(format!("element {i} is not finite (or not a rotation): {:?}", values[i])),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    /// A node whose `EXT_mesh_gpu_instancing` accessor holds no copy places nothing: its
+    /// mesh is neither counted nor planned as shared (its uses less one underflowed, found
+    /// by review: a panic in debug builds, every mesh "shared" in release).
+    #[test]
+    fn an_empty_instancing_accessor_places_no_copy() {
+        let json = r#"{
+          "asset": {"version": "2.0"},
+          "extensionsUsed": ["EXT_mesh_gpu_instancing"],
+          "buffers": [{"byteLength": 36}],
+          "bufferViews": [{"buffer": 0, "byteLength": 36}],
+          "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]},
+            {"bufferView": 0, "componentType": 5126, "count": 0, "type": "VEC3"}
+          ],
+          "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+          "nodes": [{"mesh": 0, "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": 1}}}}],
+          "scenes": [{"nodes": [0]}],
+          "scene": 0
+        }"#;
+        let raw = gltf::Gltf::from_slice_without_validation(json.as_bytes()).expect("parses");
+        let doc = gltf::Document::from_json(raw.document.into_json()).expect("a valid document");
+        let plan = super::super::plan(&doc);
+        assert_eq!((plan.flattened, plan.placed, plan.shared_copies), (0, 0, 0));
+        assert!(plan.shared.is_empty());
+    }
+}

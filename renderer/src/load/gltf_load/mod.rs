@@ -213,7 +213,8 @@ fn plan(doc: &gltf::Document) -> Plan {
     }
     for (key, (n, uses)) in meshes {
         plan.unique = plan.unique.saturating_add(n);
-        let copies = n.saturating_mul(uses - 1);
+        // A node may place no copy (an `EXT_mesh_gpu_instancing` accessor of count 0).
+        let copies = n.saturating_mul(uses.saturating_sub(1));
         if copies >= SHARED_TRIANGLES {
             plan.shared.insert(key);
             plan.shared_copies = plan.shared_copies.saturating_add(copies);
