@@ -19,7 +19,8 @@
 //! queries arrive in, the answers do not.
 
 use super::Fallback;
-use super::edge_tree::{EdgeRecord, EdgeTree};
+use super::candidate::{Candidate, block_weight};
+use super::edge_tree::EdgeTree;
 use super::edges::EdgeSet;
 use super::kept::KeptEdges;
 use glam::{DVec3, Vec3, Vec3A};
@@ -38,9 +39,6 @@ const BLOCK_DIVISOR: f64 = 32.0;
 /// a few rows per cube, a band's cubes fit.
 const ENTRIES: usize = 256;
 
-/// A candidate's weight is not the same over the block: each point computes its own.
-pub(super) const VARIES: i8 = i8::MIN;
-
 /// A block of space: the plugin's preparation it belongs to, its level (cube side 2^level)
 /// and its cube.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,27 +54,6 @@ impl Key {
             .iter()
             .fold(mix64(self.plugin), |h, &k| mix64(h ^ k));
         (h % ENTRIES as u64) as usize
-    }
-}
-
-/// A candidate edge as the per-point passes read it: flat, in the walk's order (no scattered
-/// vertex loads per point).
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Candidate {
-    pub(super) a: Vec3A,
-    pub(super) b: Vec3A,
-    /// The third corners of its faces (the first `faces`; none for an edge of more than
-    /// two, whose faces are read from the set by `edge`).
-    pub(super) thirds: [Vec3; 2],
-    pub(super) edge: u32,
-    /// Its weight over the whole block, or [`VARIES`].
-    pub(super) weight: i8,
-    pub(super) faces: u8,
-}
-
-impl Candidate {
-    pub(super) fn new(r: &EdgeRecord, weight: i8) -> Candidate {
-        Candidate { a: r.a, b: r.b, thirds: r.thirds, edge: r.edge, weight, faces: r.faces }
     }
 }
 
@@ -212,75 +189,8 @@ fn block_of(plugin: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVec3,
     Some((Key { plugin, level, cube }, centre, radius))
 }
 
-/// An edge's weight for every origin within `radius` of `centre`, or [`VARIES`]: each face's
-/// orientation orient3d(o, e0, e1, c) = N . (e0 - o) is affine in o and moves by at most
-/// |N| radius over the ball; a face is counted only where its sign holds over the whole ball
-/// by more than the f64 rounding (then each point's own exact predicate gives the same sign).
-/// N's components are rounded by under 2^-52 of `scale` each: 1e-12 of it is far over.
-pub(super) fn block_weight(r: &EdgeRecord, centre: DVec3, radius: f64) -> i8 {
-    if r.faces == 0 {
-        return VARIES;
-    }
-    let d = r.a.as_dvec3() - centre;
-    let spread = d.abs().element_sum() + 3.0 * radius;
-    let mut weight = 0i8;
-    for k in 0..r.faces as usize {
-        let n = r.planes[k];
-        let det = n.dot(d);
-        let bound = n.length() * radius * (1.0 + 1e-9) + 1e-12 * r.scale[k] * spread;
-        if det > bound {
-            weight += 1;
-        } else if det < -bound {
-            weight -= 1;
-        } else {
-            return VARIES;
-        }
-    }
-    weight
-}
-
 /// Vertex `i` of `set` as the shaft tests read it.
 #[inline(always)]
 pub(super) fn vertex_a(set: &EdgeSet, i: u32) -> Vec3A {
     Vec3A::from(set.vertices[i as usize])
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::silhouette::edges::Edge;
-    use crate::silhouette::projection::exact_orient_sign;
-
-    /// Where a block keeps an edge's weight, every origin in its ball has that weight by the
-    /// exact predicate (random edges with two faces, random balls, some touching a plane).
-    #[test]
-    fn a_kept_weight_is_every_origin_s_exact_weight() {
-        let mut next = crate::silhouette::uniform(0x0b10_c5ee_d000_0001);
-        let mut point = |s: f64| DVec3::new(next(), next(), next()) * 2.0 * s - DVec3::splat(s);
-        let (mut kept, mut varies) = (0, 0);
-        for _ in 0..3000 {
-            let vertices: Vec<Vec3> = (0..4).map(|_| point(1.0).as_vec3()).collect();
-            let set = EdgeSet {
-                vertices,
-                edges: vec![Edge { a: 0, b: 1, first: 0, count: 2 }],
-                thirds: vec![2, 3],
-                ..EdgeSet::default()
-            };
-            let (centre, radius) = (point(2.0), 0.5 * point(1.0).x.abs());
-            let w = block_weight(&EdgeRecord::new(&set, 0), centre, radius);
-            if w == VARIES {
-                varies += 1;
-                continue;
-            }
-            kept += 1;
-            let v = |i: usize| set.vertices[i].as_dvec3();
-            for _ in 0..50 {
-                let d = point(1.0);
-                let o = centre + radius * d / d.length().max(1.0);
-                let exact: i32 = [2, 3].iter().map(|&c| exact_orient_sign(o, v(0), v(1), v(c))).sum();
-                assert_eq!(exact, w as i32, "origin {o}, ball {centre} r {radius}");
-            }
-        }
-        assert!(kept > 1000 && varies > 100, "{kept} kept, {varies} varying");
-    }
 }

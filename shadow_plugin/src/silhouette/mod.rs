@@ -33,6 +33,7 @@
 
 mod alpha;
 mod blocks;
+mod candidate;
 
 /// A uniform [0, 1) stream (xorshift64, 53 bits) for the folder's randomised unit tests.
 #[cfg(test)]

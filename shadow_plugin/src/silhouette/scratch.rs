@@ -2,7 +2,8 @@
 //! shaft's candidates, the active edges and flagged triangles' regions, the samples with
 //! their counts and marks, and the strata grid's bins; with the passes that fill them.
 
-use super::blocks::{Blocks, Candidate, VARIES, vertex_a};
+use super::blocks::{Blocks, vertex_a};
+use super::candidate::{Candidate, VARIES};
 use super::counting::{ActiveEdge, EdgeRows};
 use super::edges::ALPHA;
 use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
