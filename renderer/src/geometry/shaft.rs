@@ -36,6 +36,7 @@ use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::{SHADOW_EPSILON, gamma, offset_origin};
 use crate::geometry::scene::Scene;
 use glam::{Vec3, Vec3A};
+use obvhs::bvh2::node::Bvh2Node;
 
 /// `x > 0` (false for NaN).
 #[inline]
@@ -409,30 +410,17 @@ impl Scene {
 /// the f32 rounding; the tree's boxes already hold the placed corners' rounding), each leaf's
 /// triangles placed as the flattened scene holds them and tested as it tests them.
 fn kept_clear(inst: &InstancedScene, p: &Placed, shaft: &Shaft) -> bool {
-    let bvh = &inst.meshes[p.mesh as usize].bvh;
     let linear = p.placing.linear().abs();
-    let outside = |n: &obvhs::bvh2::node::Bvh2Node| {
+    let outside = |n: &Bvh2Node, _: usize| {
         let (lo, hi) = inst.render_box(p, &linear, &n.aabb);
         shaft.box_outside(lo, hi)
     };
-    let mut stack = vec![0usize];
-    while let Some(i) = stack.pop() {
-        let n = &bvh.nodes[i];
-        if outside(n) {
-            continue;
-        }
-        if n.prim_count == 0 {
-            stack.extend([n.first_index as usize, n.first_index as usize + 1]);
-            continue;
-        }
-        for slot in n.first_index as usize..(n.first_index + n.prim_count) as usize {
+    leaves_not_outside(&inst.meshes[p.mesh as usize].bvh, outside, |first, count| {
+        (first..first + count).all(|slot| {
             let t = inst.render_triangle(p, slot);
-            if !shaft.triangle_outside(t.v0, t.v1, t.v2) {
-                return false;
-            }
-        }
-    }
-    true
+            shaft.triangle_outside(t.v0, t.v1, t.v2)
+        })
+    })
 }
 
 /// Calls `leaf(first, count)` for every leaf of `bvh` whose box the shaft does not exclude
@@ -444,6 +432,20 @@ pub fn shaft_leaves(
     bvh: &obvhs::bvh2::Bvh2,
     shaft: &Shaft,
     skip: impl Fn(usize) -> bool,
+    leaf: impl FnMut(usize, usize) -> bool,
+) -> bool {
+    let outside =
+        |node: &Bvh2Node, index: usize| shaft.box_outside(node.aabb.min, node.aabb.max) || skip(index);
+    leaves_not_outside(bvh, outside, leaf)
+}
+
+/// Calls `leaf(first, count)` for every leaf of `bvh` reached through nodes for which
+/// `outside(node, index)` is false, until `leaf` returns `false`; returns whether every call
+/// returned `true`. The walk [`shaft_leaves`] and the kept instances' walks (their boxes
+/// carried into render space first) share.
+pub fn leaves_not_outside(
+    bvh: &obvhs::bvh2::Bvh2,
+    outside: impl Fn(&Bvh2Node, usize) -> bool,
     mut leaf: impl FnMut(usize, usize) -> bool,
 ) -> bool {
     let nodes = &bvh.nodes;
@@ -457,7 +459,7 @@ pub fn shaft_leaves(
     let mut top = 0usize;
     let mut node_visit = |index: u32, stack: &mut [u32; 64], top: &mut usize| -> bool {
         let node = &nodes[index as usize];
-        if shaft.box_outside(node.aabb.min, node.aabb.max) || skip(index as usize) {
+        if outside(node, index as usize) {
             return true;
         }
         if node.prim_count == 0 {

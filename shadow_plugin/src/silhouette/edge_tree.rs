@@ -317,11 +317,8 @@ fn planes(item: u32, set: &EdgeSet) -> Option<[(DVec3, DVec3); 2]> {
     Some([(s * n0, a), (-s * n1, a)])
 }
 
-/// Every node's cone, children before parents (a node's children follow it in obvhs's
-/// layout: built by an explicit post-order walk), from `planes` of each item by its
-/// position in leaf order.
-pub(super) fn cones(bvh: &Bvh2, planes: impl Fn(usize) -> Option<[(DVec3, DVec3); 2]> + Sync) -> Vec<Cone> {
-    let mut cones = vec![Cone::NONE; bvh.nodes.len()];
+/// The tree's nodes, each before its children (reversed: children before parents).
+pub(super) fn parents_first(bvh: &Bvh2) -> Vec<usize> {
     let mut order = Vec::with_capacity(bvh.nodes.len());
     let mut stack = vec![0usize];
     while let Some(i) = stack.pop() {
@@ -331,6 +328,15 @@ pub(super) fn cones(bvh: &Bvh2, planes: impl Fn(usize) -> Option<[(DVec3, DVec3)
             stack.extend([node.first_index as usize, node.first_index as usize + 1]);
         }
     }
+    order
+}
+
+/// Every node's cone, children before parents (a node's children follow it in obvhs's
+/// layout: built by an explicit post-order walk), from `planes` of each item by its
+/// position in leaf order.
+pub(super) fn cones(bvh: &Bvh2, planes: impl Fn(usize) -> Option<[(DVec3, DVec3); 2]> + Sync) -> Vec<Cone> {
+    let mut cones = vec![Cone::NONE; bvh.nodes.len()];
+    let order = parents_first(bvh);
     // The leaves' cones (most of the work) in parallel, then the merges children first.
     let leaf_cones: Vec<(usize, Cone)> = order
         .par_iter()

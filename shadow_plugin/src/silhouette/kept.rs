@@ -20,11 +20,12 @@
 
 use super::Fallback;
 use super::candidate::{Candidate, VARIES, block_weight};
-use super::edge_tree::{Cone, EdgeRecord, cones};
+use super::edge_tree::{Cone, EdgeRecord, cones, parents_first};
 use super::welding::{pack_side, unpack_side};
 use glam::{DMat3, DVec3, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::node::Bvh2Node;
 use rayon::prelude::*;
 use renderer::geometry::instanced::{InstancedScene, Placed, StoredMesh};
 use renderer::geometry::instances::position_key;
@@ -268,38 +269,13 @@ impl MeshEdges {
     fn walk(&self, w: &Walk, out: &mut Vec<Candidate>, walked: &mut usize, max_walked: usize) -> bool {
         let Some(bvh) = &self.bvh else { return true };
         let m = InMesh::new(self, w);
-        let mut stack = [0u32; 64];
-        let mut top = 0usize;
-        let mut visit = |index: u32, stack: &mut [u32; 64], top: &mut usize| -> bool {
-            let node = &bvh.nodes[index as usize];
+        let outside = |node: &Bvh2Node, index: usize| {
             let (lo, hi) = w.inst.render_box(w.p, &w.carry.linear_abs, &node.aabb);
-            if w.shaft.box_outside(lo, hi) || m.smooth(index as usize) {
-                return true;
-            }
-            if node.prim_count == 0 {
-                if *top == stack.len() {
-                    return false;
-                }
-                stack[*top] = node.first_index;
-                *top += 1;
-                return true;
-            }
-            let range = node.first_index as usize..(node.first_index + node.prim_count) as usize;
-            m.leaf(&self.edges[range], out, walked, max_walked)
+            w.shaft.box_outside(lo, hi) || m.smooth(index)
         };
-        if !visit(0, &mut stack, &mut top) {
-            return false;
-        }
-        while top > 0 {
-            top -= 1;
-            let first = stack[top];
-            for index in [first, first + 1] {
-                if !visit(index, &mut stack, &mut top) {
-                    return false;
-                }
-            }
-        }
-        true
+        shaft::leaves_not_outside(bvh, outside, |first, count| {
+            m.leaf(&self.edges[first..first + count], out, walked, max_walked)
+        })
     }
 }
 
@@ -502,16 +478,7 @@ fn thinness(e: &MeshEdge) -> f64 {
 /// Per node: the largest `value` of its items (by position in leaf order).
 fn node_max(bvh: &Bvh2, value: impl Fn(usize) -> f64) -> Vec<f64> {
     let mut out = vec![0.0f64; bvh.nodes.len()];
-    let mut order = Vec::with_capacity(bvh.nodes.len());
-    let mut stack = vec![0usize];
-    while let Some(i) = stack.pop() {
-        order.push(i);
-        let node = &bvh.nodes[i];
-        if node.prim_count == 0 {
-            stack.extend([node.first_index as usize, node.first_index as usize + 1]);
-        }
-    }
-    for &i in order.iter().rev() {
+    for &i in parents_first(bvh).iter().rev() {
         let node = &bvh.nodes[i];
         let first = node.first_index as usize;
         out[i] = if node.prim_count == 0 {
