@@ -142,12 +142,7 @@ fn shared_and_bench_scenes_agree_with_the_bvh() {
     if !common::shared::scenes_present("exact_edge_table::shared_and_bench_scenes_agree_with_the_bvh") {
         return;
     }
-    let mut scenes: Vec<PathBuf> = std::fs::read_dir(root().join("scenes/gltf"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    scenes.sort();
+    let scenes = common::shared::gltf_scene_files();
     let rays = check_all(&scenes, 64, 48, 256);
     assert!(rays > 1_000_000, "only {rays} decided rays checked");
 }

@@ -154,12 +154,7 @@ fn shared_scenes_agree_with_the_bvh() {
     if !common::shared::scenes_present("silhouette::shared_scenes_agree_with_the_bvh") {
         return;
     }
-    let mut scenes: Vec<PathBuf> = std::fs::read_dir(root().join("scenes/gltf"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    scenes.sort();
+    let scenes = common::shared::gltf_scene_files();
     let settled = check_all(&scenes, 64, 48, 256)[0];
     assert!(settled > 1_000_000, "only {settled} settled samples checked");
 }
@@ -246,12 +241,7 @@ fn shared_scenes_with_kept_instances_agree_with_the_bvh() {
     if !common::shared::scenes_present("silhouette::shared_scenes_with_kept_instances_agree_with_the_bvh") {
         return;
     }
-    let mut scenes: Vec<PathBuf> = std::fs::read_dir(root().join("scenes/gltf"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    scenes.sort();
+    let scenes = common::shared::gltf_scene_files();
     let keys = ["checked_settled", "checked_wrong", "answers_differ"];
     let keep = Some(renderer::KeepInstances::Always);
     let [settled, wrong, differ] = checked::summed(&scenes, |s| {

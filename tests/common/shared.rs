@@ -23,6 +23,18 @@ pub const READERS: &[&str] = &[
 /// Where to read how to get the scenes.
 const HOW_TO_GET: &str = "README.md, \"The scenes\"";
 
+/// The scene files of `scenes/gltf` (one per shared model), sorted.
+pub fn gltf_scene_files() -> Vec<PathBuf> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/gltf");
+    let mut scenes: Vec<PathBuf> = std::fs::read_dir(dir)
+        .expect("scenes/gltf")
+        .map(|e| e.expect("a directory entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    scenes.sort();
+    scenes
+}
+
 /// `../shared/gltf`, beside the checkout.
 pub fn gltf_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/gltf")
