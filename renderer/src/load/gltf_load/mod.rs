@@ -239,7 +239,7 @@ fn plan_instances(path: &Path, doc: &gltf::Document, geometry: &mut Geometry) ->
     let Plan { flattened, placed, unique, .. } = plan;
     let loaded = geometry.triangles.len() as u64;
     let need = loaded
-        .saturating_add(flattened - shared_copies)
+        .saturating_add(flattened.saturating_sub(shared_copies))
         .saturating_mul(BYTES_PER_TRIANGLE)
         .saturating_add(shared_placed * BYTES_PER_INSTANCE);
     if geometry.keep_instances || need <= limit {
