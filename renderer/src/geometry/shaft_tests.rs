@@ -45,6 +45,21 @@ fn the_receivers_own_surface_and_a_ceiling_flush_with_the_light_leave_it_clear()
     assert!(clear(&s, Vec3::new(-4.0, 0.0, 3.0), Vec3::Y));
 }
 
+/// A floor 10^10 or 10^12 m wide, or a 10^19 m quad a metre under it, leaves clear the shaft
+/// of a point on a wall above it (only the huge triangle's own plane separates it there; its
+/// normal's square overflowed f32, so no such shaft was ever clear); the same quads across
+/// the shaft block it.
+#[test]
+fn a_huge_triangle_beside_the_shaft_leaves_it_clear() {
+    for (size, y) in [(1e10, 0.0), (1e12, 0.0), (1e19, -1.0), (1e10, 1.0), (1e19, 1.0)] {
+        let s = scene(&[([0.0, y, 0.0], [size, 0.0, 0.0], [0.0, 0.0, -size])], light());
+        let under = y <= 0.0;
+        for (p, n) in [(Vec3::new(-1.0, 0.5, 0.0), Vec3::X), (Vec3::new(0.2, 0.7, 1.5), Vec3::NEG_Z)] {
+            assert_eq!(clear(&s, p, n), under, "quad {size:e} m at y = {y}, point {p}");
+        }
+    }
+}
+
 #[test]
 fn an_occluder_inside_the_shaft_is_found_and_one_just_outside_is_not() {
     // From P = origin, the shaft to the light (x, z in [-0.5, 0.5] at y = 2) is
