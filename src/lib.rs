@@ -3,6 +3,7 @@
 
 pub mod bench;
 pub mod config;
+pub mod flags;
 pub mod heat;
 pub mod key_reference;
 pub mod memory;
@@ -41,21 +42,24 @@ pub struct RenderArgs {
     /// Shadow method; overrides `[shadows].method`.
     #[arg(long, value_parser = methods::value_parser())]
     pub shadows: Option<String>,
-    /// Light samples per shading point; overrides `[shadows].samples`.
-    #[arg(long)]
+    /// Light samples per shading point; overrides `[shadows].samples` (each method's own
+    /// limit: 65536 for `traced`).
+    #[arg(long, allow_negative_numbers = true,
+          value_parser = flags::whole(1..=renderer::methods::light_samples::MAX_TRACED_SAMPLES))]
     pub samples: Option<u32>,
-    /// Image width in pixels; overrides `[image].width`.
-    #[arg(long)]
+    /// Image width in pixels, 1..=16384; overrides `[image].width`.
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::config::IMAGE_SIDE))]
     pub width: Option<u32>,
-    /// Image height in pixels; overrides `[image].height`.
-    #[arg(long)]
+    /// Image height in pixels, 1..=16384; overrides `[image].height`.
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::config::IMAGE_SIDE))]
     pub height: Option<u32>,
-    /// Primary samples per pixel (1 = the pixel centre).
-    #[arg(long)]
+    /// Primary samples per pixel, 1..=4096 (1 = the pixel centre); overrides `[image].spp`.
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::config::SPP))]
     pub spp: Option<u32>,
-    /// Longest light path, counted as Mitsuba 3 counts it: 2 = direct light only, 5 = three
-    /// indirect bounces (the default); overrides `[integrator].max_depth`.
-    #[arg(long)]
+    /// Longest light path, counted as Mitsuba 3 counts it, 2..=64: 2 = direct light only, 5 =
+    /// three indirect bounces; overrides `[integrator].max_depth` (default: the scene file's,
+    /// else 5; every scene shipped here sets 2).
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::depth)]
     pub max_depth: Option<u32>,
     /// Output PNG; the EXR and JSON report go beside it. Default: out/<scene-stem>.png.
     #[arg(long)]
@@ -71,10 +75,10 @@ pub struct RenderArgs {
     #[arg(long)]
     pub profile: bool,
     /// Worker threads (default: all cores). The output bytes do not depend on it.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(1..=1024))]
     pub threads: Option<u32>,
     /// Seed of every random stream.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true, value_parser = flags::seed)]
     pub seed: u64,
     /// No progress bar and no summary on stdout. Warnings and errors still go to stderr.
     #[arg(long)]
@@ -222,7 +226,7 @@ fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
         return Err(SceneError::new(
             &scene_path,
             "--max-depth",
-            renderer::integrator::path::DEPTH_RANGE_TEXT,
+            renderer::integrator::path::depth_message(&max_depth),
         ));
     }
     let mut plan = RenderPlan { scene_path, file, shadows, width, height, spp, max_depth, png, tile: None };
@@ -269,10 +273,12 @@ fn image_size(args: &RenderArgs, file: &SceneFile, scene_path: &Path) -> Result<
     let width = args.width.unwrap_or(file.image.width);
     let height = args.height.unwrap_or(file.image.height);
     let spp = args.spp.unwrap_or(file.image.spp);
-    let limit = renderer::load::config::MAX_IMAGE_SIDE;
+    // A flag's value was checked as it was parsed (`flags.rs`), the scene file's when it
+    // was read: by the same ranges, in the same words.
+    let side = renderer::load::config::IMAGE_SIDE;
     for (flag, v) in [("--width", width), ("--height", height)] {
-        if v == 0 || v > limit {
-            return Err(SceneError::new(scene_path, flag, format!("must be in 1..={limit}, got {v}")));
+        if !side.contains(&v) {
+            return Err(SceneError::new(scene_path, flag, renderer::load::config::range_message(&side, &v)));
         }
     }
     // Every primary sample is kept for `prepare` (~100 bytes each): cap the product.
@@ -283,11 +289,12 @@ fn image_size(args: &RenderArgs, file: &SceneFile, scene_path: &Path) -> Result<
             format!("width x height x spp must be at most {MAX_PRIMARY_SAMPLES} (about 6 GB of samples)"),
         ));
     }
-    if spp == 0 || spp > renderer::load::config::MAX_SPP {
+    let spp_range = renderer::load::config::SPP;
+    if !spp_range.contains(&spp) {
         return Err(SceneError::new(
             scene_path,
             "--spp",
-            format!("must be in 1..={}", renderer::load::config::MAX_SPP),
+            renderer::load::config::range_message(&spp_range, &spp),
         ));
     }
     Ok((width, height, spp))

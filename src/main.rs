@@ -30,7 +30,18 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // A bad value: clap's first line names the flag, the range and the value; the contract
+        // gives bad input one line (and exit 2). Help, version and usage errors as clap prints
+        // them (an unknown flag's line suggests the nearest one).
+        Err(e) if e.kind() == clap::error::ErrorKind::ValueValidation => {
+            let text = e.render().to_string();
+            eprintln!("{}", text.lines().next().unwrap_or("error: bad value"));
+            return ExitCode::from(2);
+        }
+        Err(e) => e.exit(),
+    };
     exit_cleanly_on_signals();
     let args = match cli.command {
         Some(Command::Render(a)) => a,

@@ -46,22 +46,22 @@ pub struct BenchArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Runs per setting (times are medians).
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+    #[arg(long, default_value_t = 3, allow_negative_numbers = true, value_parser = crate::flags::whole(1..=100))]
     pub repeats: u32,
     /// Light samples of the traced truth.
-    #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    #[arg(long, default_value_t = 4096, allow_negative_numbers = true, value_parser = crate::flags::whole(1..=65536))]
     pub truth_samples: u32,
     /// Truth cache folder. Default: OUT/truth-cache.
     #[arg(long)]
     pub cache: Option<PathBuf>,
     /// Image width; default: the scene's, scaled down to at most 320 (keeping its aspect).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::whole(renderer::load::config::IMAGE_SIDE))]
     pub width: Option<u32>,
     /// Image height; default: the scene's, scaled like the width.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::whole(renderer::load::config::IMAGE_SIDE))]
     pub height: Option<u32>,
     /// Worker threads (default: all cores).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::whole(1..=1024))]
     pub threads: Option<u32>,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -76,7 +76,7 @@ pub struct BenchArgs {
     /// Render every setting, and the truth, as paths of this depth (2 = direct light only).
     /// Above 2 the truth traces the very same paths (same seed), so the image error is the
     /// shadow method's along them, not the paths' own noise.
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(2..=64))]
+    #[arg(long, default_value_t = 2, allow_negative_numbers = true, value_parser = crate::flags::depth)]
     pub max_depth: u32,
     /// No per-run progress lines on stderr.
     #[arg(long)]

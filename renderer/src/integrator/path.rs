@@ -28,6 +28,11 @@ pub const DEFAULT_MAX_DEPTH: u32 = 5;
 pub const DEPTH_RANGE: std::ops::RangeInclusive<u32> = 2..=64;
 /// The error for a depth outside it.
 pub const DEPTH_RANGE_TEXT: &str = "must be in 2..=64 (2 = direct light only, 5 = three indirect bounces)";
+
+/// The error for a depth outside [`DEPTH_RANGE`] (the scene file's key and the flag alike).
+pub fn depth_message(got: &dyn std::fmt::Display) -> String {
+    format!("{DEPTH_RANGE_TEXT}, got {got}")
+}
 /// The first vertex (1 = the primary hit) after which Russian roulette may end a path.
 pub const RR_START: u32 = 3;
 

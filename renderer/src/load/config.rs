@@ -5,6 +5,7 @@
 use crate::util::error::SceneError;
 use crate::util::keys::deserialize_toml;
 use serde::Deserialize;
+use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 
 /// A whole scene file, as written.
@@ -149,6 +150,17 @@ pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// Largest supersampling rate accepted.
 pub const MAX_SPP: u32 = 4096;
 
+/// The image's sides and primary samples per pixel: each range is checked by these words
+/// ([`range_message`]) for the scene file's key and the command line's flag alike.
+pub const IMAGE_SIDE: RangeInclusive<u32> = 1..=MAX_IMAGE_SIDE;
+pub const SPP: RangeInclusive<u32> = 1..=MAX_SPP;
+
+/// The error for a whole-number setting outside `range` (or not a whole number): the range,
+/// and what was given.
+pub fn range_message(range: &RangeInclusive<u32>, got: &dyn std::fmt::Display) -> String {
+    format!("must be in {}..={}, got {got}", range.start(), range.end())
+}
+
 impl SceneFile {
     /// Reads and validates a scene file. Relative model paths stay relative; resolve them
     /// with [`SceneFile::resolve`].
@@ -237,15 +249,16 @@ impl SceneFile {
         }
         let im = &self.image;
         for (k, v) in [("width", im.width), ("height", im.height)] {
-            if v == 0 || v > MAX_IMAGE_SIDE {
-                return err(format!("image.{k}"), &format!("must be in 1..={MAX_IMAGE_SIDE}"));
+            if !IMAGE_SIDE.contains(&v) {
+                return err(format!("image.{k}"), &range_message(&IMAGE_SIDE, &v));
             }
         }
-        if im.spp == 0 || im.spp > MAX_SPP {
-            return err("image.spp".into(), &format!("must be in 1..={MAX_SPP}"));
+        if !SPP.contains(&im.spp) {
+            return err("image.spp".into(), &range_message(&SPP, &im.spp));
         }
-        if !crate::integrator::path::DEPTH_RANGE.contains(&self.integrator.max_depth) {
-            return err("integrator.max_depth".into(), crate::integrator::path::DEPTH_RANGE_TEXT);
+        let depth = self.integrator.max_depth;
+        if !crate::integrator::path::DEPTH_RANGE.contains(&depth) {
+            return err("integrator.max_depth".into(), &crate::integrator::path::depth_message(&depth));
         }
         for (i, l) in self.light.iter().enumerate() {
             validate_light(l, &format!("light[{i}]"), path)?;
