@@ -89,6 +89,9 @@ pub fn mask_inputs(
 pub struct MaskEstimate {
     pub bytes: u64,
     pub masks: usize,
+    /// Whether every depth level was estimated (`false`: `bytes` is the levels' so far, which
+    /// already passed the caller's bound: a lower bound).
+    pub complete: bool,
 }
 
 /// See [`MaskEstimate`].
@@ -98,12 +101,17 @@ pub fn estimate_masks(
     samples: u32,
     (half, pitch): (Vec2, f32),
     built: &[u32],
-    heightfield: Heightfield,
-    levels: &[(f32, f32)],
+    (heightfield, levels): (Heightfield, &[(f32, f32)]),
+    stop_above: u64,
 ) -> MaskEstimate {
     let [gx, gy, _] = params.grid;
     let mut bytes = 0u64;
     for (k, &(depth, h_stop)) in levels.iter().enumerate() {
+        // Each level's estimate builds one mask's crossings: seconds for masks of tens of
+        // MiB. Past `stop_above` the answer is known.
+        if bytes > stop_above {
+            return MaskEstimate { bytes, masks: built.len(), complete: false };
+        }
         let at_level: Vec<u32> =
             built.iter().copied().filter(|&m| grid::coordinates(m, params.grid)[2] == k as u32).collect();
         let centre = |&&m: &&u32| {
@@ -114,7 +122,7 @@ pub fn estimate_masks(
         let (offset, s) = mask_inputs(ctx, params, samples, half, m);
         bytes += Mask::estimate_bytes(heightfield, offset, depth, s, pitch, h_stop) * at_level.len() as u64;
     }
-    MaskEstimate { bytes, masks: built.len() }
+    MaskEstimate { bytes, masks: built.len(), complete: true }
 }
 
 /// Refuses masks whose estimate passes `budget`, naming the grid, the samples and the bytes.
@@ -127,14 +135,22 @@ pub fn check_masks(
     if estimate.bytes <= budget {
         return Ok(());
     }
+    let need = if estimate.complete {
+        format!(
+            "about {} ({} masks of about {}",
+            human(estimate.bytes),
+            estimate.masks,
+            human(estimate.bytes / estimate.masks.max(1) as u64)
+        )
+    } else {
+        // Some depth levels were not estimated: no per-mask size to give.
+        format!("at least {} ({} masks", human(estimate.bytes), estimate.masks)
+    };
     Err(ShadowError {
         method: EdgeTable::NAME,
         message: format!(
-            "the masks need about {} ({} masks of about {}: grid {:?} x {samples} samples), more than the {} \
-             left of the memory budget; use a smaller grid, fewer samples or a smaller depth map",
-            human(estimate.bytes),
-            estimate.masks,
-            human(estimate.bytes / estimate.masks.max(1) as u64),
+            "the masks need {need}: grid {:?} x {samples} samples), more than the {} left of the memory \
+             budget; use a smaller grid, fewer samples or a smaller depth map",
             params.grid,
             human(budget)
         ),

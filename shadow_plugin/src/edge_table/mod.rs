@@ -193,8 +193,8 @@ impl EdgeTable {
             self.samples,
             (half, pitch),
             built,
-            heightfield,
-            levels,
+            (heightfield, levels),
+            u64::MAX,
         );
         self.mask_bytes_estimated.store(estimate.bytes, Ordering::Relaxed);
         memory::check_masks(&self.params, self.samples, &estimate, budget)?;
@@ -252,24 +252,110 @@ fn mask_height_cap(map: &DepthMap, visible: &[ShadingPoint]) -> f32 {
     }
 }
 
+/// The published reading's depth levels, and per level its depth and how high its masks
+/// march: far enough for the deepest point it serves, and no further than the receivers need.
+fn published_levels(
+    map: &DepthMap,
+    visible: &[ShadingPoint],
+    gz: u32,
+    blend: Blend,
+) -> (Vec<f32>, Vec<(f32, f32)>) {
+    let _span = tracing::info_span!("depth_levels").entered();
+    let (levels, z_hi) = grid::depth_levels(map, visible, gz);
+    let serve_hi = grid::serve_depths(&levels, z_hi, blend);
+    let h_cap = mask_height_cap(map, visible);
+    let per_level =
+        levels.iter().zip(&serve_hi).map(|(&z, &hi)| (z, stop_height(map.z_min, hi).min(h_cap))).collect();
+    (levels, per_level)
+}
+
+/// The exact reading's depth levels, and per level its depth and march height (what the
+/// receivers' regions need, up to [`MASK_HEIGHT_QUANTILE`]).
+fn exact_levels(map: &ExactMap, visible: &[ShadingPoint], gz: u32) -> (Vec<f32>, Vec<(f32, f32)>) {
+    let _span = tracing::info_span!("depth_levels").entered();
+    let (levels, _) = grid::depth_levels(&map.near, visible, gz);
+    let w_cap = map.stop_reach_quantile(visible, MASK_HEIGHT_QUANTILE);
+    let per_level = levels
+        .iter()
+        .map(|&z| {
+            let s = z * w_cap;
+            (z, if s.is_finite() { s / (1.0 + s) } else { 1.0 })
+        })
+        .collect();
+    (levels, per_level)
+}
+
+/// Depth maps up to this size are built before their masks are estimated (a few ms); a
+/// larger one's masks are first estimated on a map of this size.
+const COARSE_RESOLUTION: u32 = 256;
+
+/// How far over the budget the coarse estimate must be to refuse before the map is built.
+const EARLY_REFUSAL: u64 = 4;
+
 impl EdgeTable {
+    /// Refuses masks the memory budget cannot hold before the depth map is built: their bytes
+    /// estimated from a [`COARSE_RESOLUTION`] map of the same reading (its fit and depth
+    /// levels; the real map's pixel pitch), against the budget less the real map's peak. A
+    /// request the masks' own check (after the map) would refuse is refused here, in
+    /// milliseconds, where the real map took 63 s and 5 GB (depth_map = 8192, grid [16, 16,
+    /// 16], 4096 samples: 172 GiB of masks); an estimate that falls short leaves that check.
+    fn refuse_impossible_masks(&self, ctx: &PrepareContext) -> Result<(), ShadowError> {
+        let res = self.params.resolution;
+        if res <= COARSE_RESOLUTION {
+            return Ok(());
+        }
+        let coarse = EdgeTableParams { resolution: COARSE_RESOLUTION, ..self.params };
+        let gz = self.params.grid[2];
+        let (map, per_level, heightfield, layout) = match &self.params.reading {
+            Reading::Exact => {
+                let stride = ctx.visible.len().div_ceil(exact::QUANTILE_POINTS).max(1);
+                let visible: Vec<ShadingPoint> = ctx.visible.iter().step_by(stride).copied().collect();
+                let (bounds, near) =
+                    DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &coarse.depth_map());
+                let map =
+                    ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() };
+                let (_, per_level) = exact_levels(&map, &visible, gz);
+                (map.near, per_level, Heightfield::Plates, Layout::new(self.params.grid, false))
+            }
+            Reading::Published(p) => {
+                let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &coarse.depth_map());
+                let (_, per_level) = published_levels(&map, ctx.visible, gz, p.blend);
+                (map, per_level, p.heightfield, Layout::new(self.params.grid, self.params.switches.mirrored))
+            }
+        };
+        let pitch = map.pitch * COARSE_RESOLUTION as f32 / res as f32;
+        let half = map.frame.half_size;
+        let budget = ctx.memory_budget_bytes.saturating_sub(memory::map_peak_bytes(&self.params));
+        // Refused here only past EARLY_REFUSAL times the budget: the coarse map's levels
+        // put the estimate within ~2x of the real map's (measured: 301 GiB against 172 GiB
+        // for the request above), and a request near the budget is left to the exact check.
+        let bound = budget.saturating_mul(EARLY_REFUSAL);
+        let estimate = memory::estimate_masks(
+            ctx,
+            &self.params,
+            self.samples,
+            (half, pitch),
+            &layout.built,
+            (heightfield, &per_level),
+            bound,
+        );
+        if estimate.bytes <= bound {
+            return Ok(());
+        }
+        memory::check_masks(&self.params, self.samples, &estimate, budget).map_err(|mut e| {
+            e.message.push_str(&format!(
+                " (estimated on a {COARSE_RESOLUTION}^2 map, before the {res}^2 one was built)"
+            ));
+            e
+        })
+    }
+
     /// The published reading's prepare: the depth map, the depth levels, how high the masks
     /// march, the masks within the memory budget (less the map's bytes).
     fn prepare_published(&self, ctx: &PrepareContext, p: &PublishedParams) -> Result<Prepared, ShadowError> {
         let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map());
         let budget = ctx.memory_budget_bytes.saturating_sub(map.bytes());
-        let levels_span = tracing::info_span!("depth_levels").entered();
-        let (levels, z_hi) = grid::depth_levels(&map, ctx.visible, self.params.grid[2]);
-        // Each mask marches far enough for the deepest point it serves, and no further than
-        // the receivers need.
-        let serve_hi = grid::serve_depths(&levels, z_hi, p.blend);
-        let h_cap = mask_height_cap(&map, ctx.visible);
-        drop(levels_span);
-        let per_level: Vec<(f32, f32)> = levels
-            .iter()
-            .zip(&serve_hi)
-            .map(|(&z, &hi)| (z, stop_height(map.z_min, hi).min(h_cap)))
-            .collect();
+        let (levels, per_level) = published_levels(&map, ctx.visible, self.params.grid[2], p.blend);
         let layout = Layout::new(self.params.grid, self.params.switches.mirrored);
         let masks = self.build_masks(ctx, &map, &layout.built, p.heightfield, &per_level, budget)?;
         let grid = MaskGrid { dims: self.params.grid, blend: p.blend, levels, cells: layout.cells };
@@ -289,17 +375,7 @@ impl EdgeTable {
             DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &self.params.depth_map());
         let map =
             Box::new(ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() });
-        let levels_span = tracing::info_span!("depth_levels").entered();
-        let (levels, _) = grid::depth_levels(&map.near, &visible, self.params.grid[2]);
-        let w_cap = map.stop_reach_quantile(&visible, MASK_HEIGHT_QUANTILE);
-        drop(levels_span);
-        let per_level: Vec<(f32, f32)> = levels
-            .iter()
-            .map(|&z| {
-                let s = z * w_cap;
-                (z, if s.is_finite() { s / (1.0 + s) } else { 1.0 })
-            })
-            .collect();
+        let (levels, per_level) = exact_levels(&map, &visible, self.params.grid[2]);
         let layout = Layout::new(self.params.grid, false);
         // Classification reads no walls: the masks are built without the `shells` reading's
         // per-side tables.
@@ -488,8 +564,10 @@ impl LightShadowing for EdgeTable {
         ctx.scene.require_flattened(self.name())?;
         self.state = None;
         self.warning = None;
-        // The map's peak is known from its size alone: refused before anything is built.
+        // The map's peak is known from its size alone, the masks' from a coarse map: both
+        // refused before anything large is built.
         memory::check_map(&self.params, ctx.memory_budget_bytes)?;
+        self.refuse_impossible_masks(ctx)?;
         self.state = Some(match &self.params.reading {
             Reading::Exact => {
                 self.fallback.prepare(ctx)?;
