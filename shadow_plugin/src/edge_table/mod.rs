@@ -136,6 +136,9 @@ enum Prepared {
         masks: Vec<ExactMask>,
         grid: MaskGrid,
     },
+    /// No map: its rounding margins would exceed the light's distance to what it lights
+    /// ([`Margins::defeat_the_map`]), so every ray is traced.
+    Traced,
 }
 
 /// Share of receivers whose stop height the masks cover (the rest fall back to traced).
@@ -537,22 +540,52 @@ impl EdgeTable {
 /// The depth map's rounding margins are `gamma(64)` of the scene's largest coordinate (one
 /// margin for every triangle, so that their depth ranges in a pixel compare: see
 /// `depth_map::bounds`), unlike `traced`'s and `silhouette`'s, which follow each triangle.
-/// Far geometry (a 1 m quad 10^6 m away) widens them to metres and more rays are traced
-/// (measured: 1.9x the rays at 10^6 m, 1.25x at 10^5 m): say so where the margin exceeds
-/// 1/100 of the light's distance to what it lights.
-fn margin_warning(ctx: &PrepareContext) -> Option<String> {
-    let bound = ctx.scene.coordinate_bound();
-    let margin = renderer::geometry::ray_origin::gamma(64) * bound;
-    let step = ctx.visible.len().div_ceil(1024).max(1);
-    let reach =
-        ctx.visible.iter().step_by(step).map(|q| (q.p - ctx.light.center).length()).fold(0.0, f32::max);
-    (reach > 0.0 && margin > 1e-2 * reach).then(|| {
-        format!(
-            "edge_table: geometry {bound:.1e} m from the camera widens the depth map's rounding \
-             margins to {margin:.1e} m, against {reach:.1e} m from the light to what it lights: more rays are \
-             traced (a 1 m quad at 10^6 m: ~1.9x); traced and silhouette do not depend on it"
-        )
-    })
+/// Far geometry widens them (a 1 m quad 10^5 m away: 0.4 m, 1.25x the rays; at 10^6 m, 4 m:
+/// the map is not built, [`Margins::defeat_the_map`]).
+struct Margins {
+    /// The scene's largest coordinate, the margin it gives, and the light's distance to the
+    /// farthest point it lights (of up to 1024 visible points).
+    bound: f32,
+    margin: f32,
+    reach: f32,
+}
+
+impl Margins {
+    fn of(ctx: &PrepareContext) -> Margins {
+        let bound = ctx.scene.coordinate_bound();
+        let margin = renderer::geometry::ray_origin::gamma(64) * bound;
+        let step = ctx.visible.len().div_ceil(1024).max(1);
+        let reach =
+            ctx.visible.iter().step_by(step).map(|q| (q.p - ctx.light.center).length()).fold(0.0, f32::max);
+        Margins { bound, margin, reach }
+    }
+
+    /// Whether the margin passes 1/8 of the light's reach: the masks then march ever further
+    /// to tell occluders from receivers, and cost more than tracing. Measured on the default
+    /// scene with its floor enlarged (640x480, render seconds; margin / reach): 10^5 m 0.71 s
+    /// (0.044), 2x10^5 0.86 (0.088), 3x10^5 0.91 (0.13), 5x10^5 1.5 (0.22), 7x10^5 4.6 (0.30),
+    /// 10^6 12.9 (0.44: 164 MB of masks, 1.05 G edge lookups); every ray traced, 0.6 s. Past
+    /// it no map is built and every ray is traced.
+    fn defeat_the_map(&self) -> bool {
+        self.reach > 0.0 && self.margin > 0.125 * self.reach
+    }
+
+    /// A warning where the margin exceeds 1/100 of the light's reach.
+    fn warning(&self) -> Option<String> {
+        let Margins { bound, margin, reach } = *self;
+        let cost = if self.defeat_the_map() {
+            "every ray is traced, at traced's cost (no depth map is built)"
+        } else {
+            "more rays are traced"
+        };
+        (reach > 0.0 && margin > 1e-2 * reach).then(|| {
+            format!(
+                "edge_table: geometry {bound:.1e} m from the camera widens the depth map's rounding \
+                 margins to {margin:.1e} m, against {reach:.1e} m from the light to what it lights: {cost}; \
+                 traced and silhouette do not depend on it"
+            )
+        })
+    }
 }
 
 impl LightShadowing for EdgeTable {
@@ -566,6 +599,13 @@ impl LightShadowing for EdgeTable {
         self.warning = None;
         // The map's peak is known from its size alone, the masks' from a coarse map: both
         // refused before anything large is built.
+        let margins = Margins::of(ctx);
+        self.margin_warning = margins.warning();
+        if margins.defeat_the_map() {
+            self.fallback.prepare(ctx)?;
+            self.state = Some(Prepared::Traced);
+            return Ok(());
+        }
         memory::check_map(&self.params, ctx.memory_budget_bytes)?;
         self.refuse_impossible_masks(ctx)?;
         self.state = Some(match &self.params.reading {
@@ -581,7 +621,6 @@ impl LightShadowing for EdgeTable {
         let mask_bytes = self.counters().iter().find(|c| c.0 == "mask_bytes").map_or(0, |c| c.1);
         let peak = memory::map_peak_bytes(&self.params);
         self.warning = memory::warning(&self.params, peak, self.memory_bytes(), mask_bytes);
-        self.margin_warning = margin_warning(ctx);
         Ok(())
     }
 
@@ -595,12 +634,13 @@ impl LightShadowing for EdgeTable {
             Prepared::Published { map, masks, grid, heightfield } => {
                 self.visibility_published(scene, q, map, masks, grid, *heightfield)
             }
+            Prepared::Traced => self.fallback.trace(scene, q),
         }
     }
 
     fn memory_bytes(&self) -> u64 {
         match &self.state {
-            None => 0,
+            None | Some(Prepared::Traced) => 0,
             Some(Prepared::Published { map, masks, .. }) => {
                 masks.iter().map(Mask::bytes).sum::<u64>() + map.bytes()
             }
@@ -614,12 +654,12 @@ impl LightShadowing for EdgeTable {
         let masks: Vec<&Mask> = match &self.state {
             Some(Prepared::Published { masks, .. }) => masks.iter().collect(),
             Some(Prepared::Exact { masks, .. }) => masks.iter().map(|m| &m.mask).collect(),
-            None => Vec::new(),
+            None | Some(Prepared::Traced) => Vec::new(),
         };
         let map_bytes = match &self.state {
             Some(Prepared::Published { map, .. }) => map.bytes(),
             Some(Prepared::Exact { map, .. }) => map.bounds.bytes() + map.near.bytes(),
-            None => 0,
+            None | Some(Prepared::Traced) => 0,
         };
         let mut c = vec![
             ("masks_built", masks.len() as u64),
