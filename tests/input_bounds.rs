@@ -265,6 +265,22 @@ fn missing_bin_is_named() {
 /// Buffer URIs that lead out of the model's folder (an absolute path, a `file:` URI, `..`
 /// past the folder) load, with a warning naming the model, the key, the URI and the file
 /// read; a URI inside the folder gets none.
+/// The user's report: a glTF whose buffer URI is an absolute path to a file that is not the
+/// model's (say /etc/passwd) failed with "index 28525 out of range", and the warning naming
+/// the file it read was never printed. The error names it now.
+#[test]
+fn a_uri_reading_the_wrong_file_is_named_in_the_error() {
+    let dir = TempDir::new("bounds-uri-wrong-file");
+    std::fs::create_dir_all(dir.join("models")).unwrap();
+    let passwd = dir.join("passwd");
+    std::fs::write(&passwd, "root:x:0:0:root:/root:/bin/bash\n".repeat(64)).unwrap();
+    let b = floor_with_a_degenerate_triangle([0.8; 4]);
+    let uri = passwd.display().to_string();
+    common::gltf_writer::write_json(&dir.join("models/floor.gltf"), &b.json(&uri));
+    let o = render(&dir, &model_scene("models/floor.gltf"), &[]);
+    assert_error(&o, &dir, &["models/floor.gltf", &format!("it reads {uri}, outside the model's folder")]);
+}
+
 #[test]
 fn a_uri_out_of_the_models_folder_is_a_warning() {
     let dir = TempDir::new("bounds-uri");

@@ -117,7 +117,28 @@ pub fn load_gltf(
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
     plan_instances(path, &gltf.document, geometry)?;
-    geometry.warnings.extend(uris_out_of_folder(path, base, &gltf.document));
+    let out_of_folder = uris_out_of_folder(path, base, &gltf.document);
+    geometry.warnings.extend(out_of_folder.iter().cloned());
+    // A URI out of the model's folder that reads the wrong file (say /etc/passwd) fails the
+    // load further on ("index 28525 out of range"), and the warning that names the file read
+    // would never be printed: the error names it instead.
+    load_file(path, base, &gltf, model_from_file, geometry).map_err(|mut e| {
+        if let Some(first) = out_of_folder.first() {
+            e.message.push_str(&format!(" (note: {first})"));
+        }
+        e
+    })
+}
+
+/// [`load_gltf`] once the file is open: its buffers, materials and nodes.
+fn load_file(
+    path: &Path,
+    base: &Path,
+    gltf: &gltf::Gltf,
+    model_from_file: DMat4,
+    geometry: &mut Geometry,
+) -> Result<Option<GltfCamera>, SceneError> {
+    let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
     let buffers = load_buffers(path, base, &gltf.document, gltf.blob.clone())?;
     let doc = &gltf.document;
 
