@@ -474,6 +474,57 @@ fn write_card(dir: &TempDir, stem: &str, alpha_mode: &str, h: f32) {
     b.write(&dir.path, stem);
 }
 
+/// The user's report: textures were always filtered bilinearly, so a sampler asking for
+/// `NEAREST` (pixel art, masks, lookup textures) was not honoured, in colours or alpha tests.
+/// A 4 x 1 texture of alpha 255, 0, 0, 0 under an alpha cutoff of 0.2: at u = 0.3 (texel 1,
+/// 0.2 of a texel past the centre of texel 0's edge) the nearest texel is clear, a bilinear
+/// lookup reads 255 x 0.3 = 76.5 >= 51: opaque. `magFilter` decides; without it, a nearest
+/// `minFilter`; without either, linear.
+#[test]
+fn a_nearest_sampler_is_honoured_by_the_alpha_test() {
+    let dir = TempDir::new("nearest_sampler");
+    write_png_rgba(&dir.join("stripe.png"), 4, 1, |x, _| if x == 0 { [255; 4] } else { [255, 255, 255, 0] });
+    let cases = [
+        (json!({"magFilter": 9728}), true),
+        (json!({"magFilter": 9729, "minFilter": 9728}), false),
+        (json!({"minFilter": 9986}), true),
+        (json!({}), false),
+    ];
+    for (i, (sampler, nearest)) in cases.into_iter().enumerate() {
+        let mut b = GltfBuilder::new();
+        let pos = b.positions(&[[-1.0, 1.0, -1.0], [1.0, 1.0, -1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]]);
+        let uv = b.texcoords(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+        let ind = b.indices_u16(&[0, 2, 1, 0, 3, 2]);
+        let tex = b.texture_png_sampled("stripe.png", sampler.clone());
+        let mat = b.material(json!({
+            "pbrMetallicRoughness": {"baseColorTexture": {"index": tex}},
+            "alphaMode": "MASK",
+            "alphaCutoff": 0.2,
+        }));
+        let mesh = b.mesh(vec![primitive(
+            &[("POSITION", pos), ("TEXCOORD_0", uv)],
+            Some(ind),
+            TRIANGLES,
+            Some(mat),
+        )]);
+        let node = b.node(json!({"mesh": mesh}));
+        let s = b.scene(&[node]);
+        b.set_default_scene(s);
+        let stem = format!("card{i}");
+        b.write(&dir.path, &stem);
+        let toml = format!(
+            "[[model]]\npath = \"{stem}.gltf\"\n[camera]\nposition = [0.0, 5.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\n\
+             [[light]]\ncenter = [0.0, 3.0, 0.0]\nu = [0.5, 0.0, 0.0]\nv = [0.0, 0.0, 0.5]\nradiance = [1.0, 1.0, 1.0]\n"
+        );
+        let scene = load_scene(&dir, &toml).expect("loads");
+        let m = scene.materials.iter().find(|m| m.base_color_texture.is_some()).expect("the card's material");
+        let cut = |u: f32| m.is_cutout(glam::Vec2::new(u, 0.5), &scene.textures);
+        assert_eq!(cut(0.3), nearest, "sampler {sampler}: u = 0.3");
+        // Inside texel 0 and deep in texel 2 both filters agree.
+        assert!(!cut(0.1) && cut(0.6), "sampler {sampler}");
+    }
+}
+
 /// Traced visibility (64 samples) of the scene's first light at floor points (world, y = 0,
 /// normal +Y).
 fn floor_visibility(scene: &Scene, points: &[DVec3]) -> Vec<f32> {

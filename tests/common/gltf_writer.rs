@@ -193,8 +193,13 @@ impl GltfBuilder {
     /// [`Self::texture_png`] with the sampler's wrap modes (glTF codes: 10497 repeat, 33648
     /// mirrored repeat, 33071 clamp to edge).
     pub fn texture_png_wrapped(&mut self, uri: &str, wrap_s: u32, wrap_t: u32) -> usize {
+        self.texture_png_sampled(uri, json!({"wrapS": wrap_s, "wrapT": wrap_t}))
+    }
+
+    /// [`Self::texture_png`] with the sampler `sampler` (glTF JSON: wrap modes, filters).
+    pub fn texture_png_sampled(&mut self, uri: &str, sampler: Value) -> usize {
         let image = push(&mut self.images, json!({"uri": uri, "mimeType": "image/png"}));
-        let sampler = push(&mut self.samplers, json!({"wrapS": wrap_s, "wrapT": wrap_t}));
+        let sampler = push(&mut self.samplers, sampler);
         push(&mut self.textures, json!({"source": image, "sampler": sampler}))
     }
 

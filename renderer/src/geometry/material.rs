@@ -31,6 +31,16 @@ impl Wrap {
     }
 }
 
+/// How a lookup between texel centres reads (the glTF sampler's filter): blended from the
+/// four nearest texels, or the one texel the coordinate falls in (pixel art, masks, lookup
+/// tables). There are no mipmaps: every lookup is at one point.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Filter {
+    #[default]
+    Linear,
+    Nearest,
+}
+
 /// An 8-bit RGBA image whose RGB is sRGB-encoded and whose alpha is linear.
 #[derive(Debug, Clone)]
 pub struct Texture {
@@ -61,8 +71,19 @@ impl Texture {
         Vec4::new(t[r as usize], t[g as usize], t[b as usize], a as f32 / 255.0)
     }
 
-    /// Bilinear lookup in linear space at texture coordinate `uv`.
-    pub fn sample(&self, uv: Vec2, wrap_s: Wrap, wrap_t: Wrap) -> Vec4 {
+    /// The lookup at texture coordinate `uv` in linear space: bilinear, or the texel `uv`
+    /// falls in ([`Filter::Nearest`]).
+    pub fn sample(&self, uv: Vec2, (wrap_s, wrap_t): (Wrap, Wrap), filter: Filter) -> Vec4 {
+        if filter == Filter::Nearest {
+            let (x, y) = (uv.x * self.width as f32, uv.y * self.height as f32);
+            if !(x.is_finite() && y.is_finite()) {
+                return self.texel(0, 0);
+            }
+            return self.texel(
+                wrap_s.index(x.floor() as i64, self.width),
+                wrap_t.index(y.floor() as i64, self.height),
+            );
+        }
         let x = uv.x * self.width as f32 - 0.5;
         let y = uv.y * self.height as f32 - 0.5;
         if !(x.is_finite() && y.is_finite()) {
@@ -86,6 +107,7 @@ pub struct TextureRef {
     pub texture: u32,
     pub wrap_s: Wrap,
     pub wrap_t: Wrap,
+    pub filter: Filter,
     /// KHR_texture_transform (identity when absent).
     pub transform: Affine2,
 }
@@ -121,7 +143,7 @@ impl Material {
         match &self.base_color_texture {
             Some(t) => {
                 let uv = t.transform.transform_point2(uv);
-                self.base_color * textures[t.texture as usize].sample(uv, t.wrap_s, t.wrap_t)
+                self.base_color * textures[t.texture as usize].sample(uv, (t.wrap_s, t.wrap_t), t.filter)
             }
             None => self.base_color,
         }
@@ -173,7 +195,7 @@ mod tests {
     #[test]
     fn texel_centres_are_exact_and_repeat_wraps() {
         let t = checker();
-        let s = |u, v| t.sample(Vec2::new(u, v), Wrap::Repeat, Wrap::Repeat);
+        let s = |u, v| t.sample(Vec2::new(u, v), (Wrap::Repeat, Wrap::Repeat), Filter::Linear);
         assert_eq!(s(0.25, 0.25), Vec4::new(1.0, 1.0, 1.0, 1.0));
         assert_eq!(s(0.75, 0.25), Vec4::new(0.0, 0.0, 0.0, 0.0));
         assert_eq!(s(1.25, -0.75), Vec4::new(1.0, 1.0, 1.0, 1.0));

@@ -13,7 +13,13 @@ fn half() -> Texture {
 fn masked(wrap: Wrap, transform: Affine2, w: f32, cutoff: f32) -> Material {
     Material {
         base_color: Vec4::new(1.0, 1.0, 1.0, w),
-        base_color_texture: Some(TextureRef { texture: 0, wrap_s: wrap, wrap_t: wrap, transform }),
+        base_color_texture: Some(TextureRef {
+            texture: 0,
+            wrap_s: wrap,
+            wrap_t: wrap,
+            filter: Default::default(),
+            transform,
+        }),
         alpha: AlphaMode::Mask { cutoff },
     }
 }

@@ -97,6 +97,7 @@ pub(super) fn texture_ref(
         texture: slot,
         wrap_s: wrap(sampler.wrap_s()),
         wrap_t: wrap(sampler.wrap_t()),
+        filter: filter(sampler.mag_filter(), sampler.min_filter()),
         transform,
     })
 }
@@ -131,6 +132,22 @@ pub(super) fn image_source_problem(
             }
         }
         (None, _, Some(_)) => None,
+    }
+}
+
+/// The sampler's filter for a lookup at one point: its `magFilter`, else the base of its
+/// `minFilter` (`NEAREST_MIPMAP_*` is nearest within a level), else linear (glTF leaves the
+/// default to the renderer).
+fn filter(mag: Option<gltf::texture::MagFilter>, min: Option<gltf::texture::MinFilter>) -> Filter {
+    use gltf::texture::{MagFilter, MinFilter};
+    match (mag, min) {
+        (Some(MagFilter::Nearest), _) => Filter::Nearest,
+        (Some(MagFilter::Linear), _) => Filter::Linear,
+        (
+            None,
+            Some(MinFilter::Nearest | MinFilter::NearestMipmapNearest | MinFilter::NearestMipmapLinear),
+        ) => Filter::Nearest,
+        _ => Filter::Linear,
     }
 }
 

@@ -3,7 +3,7 @@
 //! expanded, nested TRS and matrices alike. Skins and morph targets are ignored (bind pose).
 
 use crate::geometry::instances::{Instance, MeshTopology, Placement, Placing, PrimitiveData, TriangleOrigin};
-use crate::geometry::material::{AlphaMode, Material, Texture, TextureRef, Wrap};
+use crate::geometry::material::{AlphaMode, Filter, Material, Texture, TextureRef, Wrap};
 use crate::util::error::SceneError;
 use glam::{Affine2, DMat4, DVec3, Mat2, Vec2, Vec3, Vec4};
 use gltf::Semantic;
