@@ -58,7 +58,7 @@ fn check_outputs(out: &Path, scenes: &[&str]) -> serde_json::Value {
     for r in &rows {
         assert_eq!(r.len(), header.len(), "{r:?}");
         for (name, v) in header.iter().zip(r) {
-            if !["scene", "method", "setting", "edge_table_default"].contains(name) {
+            if !["scene", "method", "setting", "headline"].contains(name) {
                 let x: f64 = v.parse().unwrap_or_else(|_| panic!("{name} = {v:?} is not a number"));
                 assert!(x.is_finite(), "{name} = {x}");
             }
@@ -75,6 +75,11 @@ fn check_outputs(out: &Path, scenes: &[&str]) -> serde_json::Value {
         let rmse = |s: &str| -> f64 { mine.iter().find(|r| r[2] == s).unwrap()[rmse_col].parse().unwrap() };
         assert!(rmse("traced N=64") < rmse("traced N=16"), "{scene}");
         assert!(rmse("traced N=16") > 0.0, "{scene}");
+        // The headline is the fast exact method a user should pick (it was edge_table's
+        // default, 0.055x of traced in `bench --quick`).
+        let head = header.iter().position(|c| *c == "headline").unwrap();
+        let heads: Vec<&str> = mine.iter().filter(|r| r[head] == "true").map(|r| r[2]).collect();
+        assert_eq!(heads, vec!["silhouette N=64"], "{scene}");
     }
 
     // JSON: the same rows, and each scene's equal-error speedup.
@@ -84,15 +89,15 @@ fn check_outputs(out: &Path, scenes: &[&str]) -> serde_json::Value {
         match s["equal_error_speedup"]["ratio"].as_f64() {
             Some(r) => assert!(r > 0.0, "{s}"),
             // No ratio only where a cost was lost in the timing noise of these tiny frames
-            // (a render no slower than `none`'s): edge_table's, or every traced setting's
+            // (a render no slower than `none`'s): the headline's, or every traced setting's
             // (the plain reference aside). Not a missing computation.
             None => {
                 let scene_rows: Vec<&serde_json::Value> =
                     json["rows"].as_array().unwrap().iter().filter(|r| r["scene"] == s["scene"]).collect();
                 let row = scene_rows
                     .iter()
-                    .find(|r| r["edge_table_default"] == true)
-                    .unwrap_or_else(|| panic!("no edge_table default row: {s}"));
+                    .find(|r| r["headline"] == true)
+                    .unwrap_or_else(|| panic!("no headline row: {s}"));
                 let cost = |r: &serde_json::Value| r["shadow_cost_s"].as_f64().unwrap();
                 // The references: traced as it ships, its plain reference aside.
                 let references: Vec<String> = penumbra::bench::sweep(true, METHODS)

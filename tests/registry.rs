@@ -252,7 +252,7 @@ fn a_bench_of_the_toy_reports_it() {
     assert_eq!(methods, ["traced", "traced", "traced", "traced", "toy", "toy"]);
     for r in rows.iter().filter(|r| r["method"] == "toy") {
         let level = if r["setting"] == "toy 0.5 N=64" { 0.5 } else { 0.25 };
-        assert_eq!(r["edge_table_default"], level == 0.5, "the headline column: {r}");
+        assert_eq!(r["headline"], level == 0.5, "the headline column: {r}");
         // |level - truth| over the lit pixels: the fully lit ones (truth 1) are the largest.
         let max = r["max"].as_f64().unwrap();
         assert!((max - (1.0 - level)).abs() < 1e-6, "{r}");

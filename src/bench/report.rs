@@ -14,8 +14,7 @@ pub struct Row {
     pub setting: String,
     pub samples: u32,
     /// The headline setting's row ([`renderer::SweepSetting::headline`]). The column is
-    /// named for the one method that has one, `edge_table`'s default.
-    #[serde(rename = "edge_table_default")]
+    /// `headline` in the CSV and JSON.
     pub headline: bool,
     /// A reference of the equal-error speedup ([`renderer::SweepSetting::reference`]).
     #[serde(skip)]
@@ -47,7 +46,7 @@ pub struct Row {
 }
 
 /// CSV header and line of a row (every field of the JSON, in the same order).
-const CSV_HEADER: &str = "scene,method,setting,samples,edge_table_default,width,height,repeats,shadow_prepare_s,render_s,total_s,shadow_cost_s,peak_rss_mib,method_mib,fallbacks,traced_ray_share,lookups_per_query,prepare_share,rmse,penumbra_rmse,p99,max,leak_rate,false_shadow_rate,penumbra_bias,image_relative_rmse,lit_pixels,penumbra_pixels,dark_pixels,bright_pixels";
+const CSV_HEADER: &str = "scene,method,setting,samples,headline,width,height,repeats,shadow_prepare_s,render_s,total_s,shadow_cost_s,peak_rss_mib,method_mib,fallbacks,traced_ray_share,lookups_per_query,prepare_share,rmse,penumbra_rmse,p99,max,leak_rate,false_shadow_rate,penumbra_bias,image_relative_rmse,lit_pixels,penumbra_pixels,dark_pixels,bright_pixels";
 
 /// A CSV field: quoted (quotes doubled) when it holds a comma, quote or line break. The
 /// `csv` crate cannot write the flattened `Row` (serde's `flatten` goes through a map).
@@ -144,8 +143,8 @@ pub struct SceneResult {
     pub rows: Vec<Row>,
     /// Per method family, the best setting's figures.
     pub best: Vec<BestFigures>,
-    /// The equal-error speedup of the headline setting (`edge_table`'s default at the top
-    /// count), if it was run: on visibility RMSE, on the final image's relative RMSE (what a
+    /// The equal-error speedup of the headline setting (`silhouette` at the top count: the
+    /// fast exact method a user should pick), if it was run: on visibility RMSE, on the final image's relative RMSE (what a
     /// user sees) and on the penumbra RMSE.
     pub speedup: Option<Speedup>,
     pub speedup_image: Option<Speedup>,
@@ -170,24 +169,23 @@ pub struct BestFigures {
 
 /// The equal-error speedup (the definition): the shadow cost of the cheapest
 /// reference run (`traced` as it ships) whose RMSE is at or below the headline's
-/// (`edge_table`'s defaults, 1024 samples), divided by the headline's. The fields are named
-/// for those two (`results.json`'s keys).
+/// (`silhouette` at 1024 samples), divided by the headline's.
 #[derive(Debug, Clone, Serialize)]
 pub struct Speedup {
-    pub edge_table_rmse: f64,
-    pub edge_table_cost_s: f64,
-    /// The traced run matched: the cheapest at or below edge_table's error, or, when none
+    pub headline_rmse: f64,
+    pub headline_cost_s: f64,
+    /// The traced run matched: the cheapest at or below the headline's error, or, when none
     /// is, the most accurate one (`at_least`).
     pub traced_setting: String,
     pub traced_cost_s: f64,
     pub ratio: f64,
-    /// No traced run reached edge_table's error: the speedup is at least `ratio`.
+    /// No traced run reached the headline's error: the speedup is at least `ratio`.
     pub at_least: bool,
     /// The match is the cheapest traced run and is strictly more accurate: a traced run
     /// with fewer samples might match too, so the speedup is at most `ratio`.
     pub at_most: bool,
-    /// The traced cost at exactly edge_table's error, interpolated on log-log axes between
-    /// the two traced runs whose errors bracket it, over edge_table's cost (None outside
+    /// The traced cost at exactly the headline's error, interpolated on log-log axes between
+    /// the two traced runs whose errors bracket it, over the headline's cost (None outside
     /// the traced runs' range).
     pub interpolated_ratio: Option<f64>,
 }
@@ -251,8 +249,8 @@ pub(super) fn equal_error_speedup_on(rows: &[Row], measure: Measure) -> Option<S
         )
     });
     Some(Speedup {
-        edge_table_rmse: et.errors.rmse,
-        edge_table_cost_s: et.shadow_cost_s,
+        headline_rmse: et.errors.rmse,
+        headline_cost_s: et.shadow_cost_s,
         traced_setting: t.setting.clone(),
         traced_cost_s: t.shadow_cost_s,
         ratio: t.shadow_cost_s / et.shadow_cost_s,
@@ -287,8 +285,8 @@ pub(super) fn speedup_text(s: &Option<Speedup>, headline: Option<&str>) -> Strin
                 ""
             },
             ratio_text(s.ratio),
-            s.edge_table_rmse,
-            s.edge_table_cost_s,
+            s.headline_rmse,
+            s.headline_cost_s,
             s.traced_setting,
             s.traced_cost_s,
             if s.at_most { ", already more accurate" } else { "" },
@@ -337,34 +335,38 @@ pub(super) fn summary(args: &BenchArgs, results: &[SceneResult]) -> String {
     s
 }
 
+/// A row for tests: `method`'s setting `setting` at `cost` seconds and RMSE `rmse`.
+#[cfg(test)]
+pub(super) fn test_row(method: &str, setting: &str, cost: f64, rmse: f64, default: bool) -> Row {
+    Row {
+        scene: "s".into(),
+        method: method.into(),
+        setting: setting.into(),
+        samples: 0,
+        headline: default,
+        reference: method == "traced",
+        width: 1,
+        height: 1,
+        repeats: 1,
+        shadow_prepare_s: 0.0,
+        render_s: 0.0,
+        total_s: 0.0,
+        shadow_cost_s: cost,
+        peak_rss_mib: 0.0,
+        method_mib: 0.0,
+        fallbacks: 0,
+        traced_ray_share: 0.0,
+        lookups_per_query: 0.0,
+        prepare_share: 0.0,
+        errors: Errors { rmse, ..Errors::default() },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    fn row(method: &str, setting: &str, cost: f64, rmse: f64, default: bool) -> Row {
-        Row {
-            scene: "s".into(),
-            method: method.into(),
-            setting: setting.into(),
-            samples: 0,
-            headline: default,
-            reference: method == "traced",
-            width: 1,
-            height: 1,
-            repeats: 1,
-            shadow_prepare_s: 0.0,
-            render_s: 0.0,
-            total_s: 0.0,
-            shadow_cost_s: cost,
-            peak_rss_mib: 0.0,
-            method_mib: 0.0,
-            fallbacks: 0,
-            traced_ray_share: 0.0,
-            lookups_per_query: 0.0,
-            prepare_share: 0.0,
-            errors: Errors { rmse, ..Errors::default() },
-        }
-    }
+    use super::test_row as row;
 
     #[test]
     fn equal_error_speedup_takes_the_cheapest_traced_run_at_or_below_the_error() {

@@ -151,18 +151,8 @@ pub(super) fn bench_scene(
     let best_files =
         figures::stage_images(staged, out, stem, &settings, &truth, &reach, &best).map_err(io)?;
     // The plot: error against cost, a line per family.
-    let series: Vec<plot::Series> = best
-        .iter()
-        .map(|b| plot::Series {
-            family: b.family,
-            style: plot::style(plan.methods, b.family),
-            points: rows
-                .iter()
-                .filter(|r| r.method == b.family)
-                .map(|r| (r.shadow_cost_s, r.errors.rmse))
-                .collect(),
-        })
-        .collect();
+    let families: Vec<&str> = best.iter().map(|b| b.family).collect();
+    let series = plot_series(&rows, &families, plan.methods);
     let title = format!("{stem}: visibility RMSE against shadow cost ({width}x{height})");
     figures::stage_plot(staged, &scene_dir, &title, &series).map_err(io)?;
 
@@ -321,9 +311,49 @@ fn row(base: &Baseline, s: &Setting, run: &Run) -> Row {
     }
 }
 
+/// The plot's series: a line per family of `families` over its rows, and `traced plain`
+/// (the shaft-culled curve's reference, no culling) its own grey series, not a zigzag on
+/// `traced`'s line.
+fn plot_series<'a>(rows: &[Row], families: &[&'a str], methods: &[Registered]) -> Vec<plot::Series<'a>> {
+    let plain = |r: &&Row| r.setting.starts_with(renderer::methods::traced::PLAIN_LABEL);
+    let points =
+        |rows: &mut dyn Iterator<Item = &Row>| rows.map(|r| (r.shadow_cost_s, r.errors.rmse)).collect();
+    let mut series: Vec<plot::Series> = families
+        .iter()
+        .map(|&family| plot::Series {
+            family,
+            style: plot::style(methods, family),
+            points: points(&mut rows.iter().filter(|r| r.method == family && !plain(r))),
+        })
+        .collect();
+    if rows.iter().any(|r| plain(&r)) {
+        series.push(plot::Series {
+            family: renderer::methods::traced::PLAIN_LABEL,
+            style: plot::Style { colour: [127, 127, 127], line: true },
+            points: points(&mut rows.iter().filter(plain)),
+        });
+    }
+    series
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `traced plain` (one setting at the top count, no culling) is its own series: on
+    /// `traced`'s line it made a zigzag (the user's report of `bench --quick`).
+    #[test]
+    fn traced_plain_is_its_own_series() {
+        let rows = [
+            super::super::report::test_row("traced", "traced N=16", 0.1, 0.02, false),
+            super::super::report::test_row("traced", "traced N=64", 0.3, 0.01, false),
+            super::super::report::test_row("traced", "traced plain N=64", 0.6, 0.01, false),
+            super::super::report::test_row("silhouette", "silhouette N=64", 0.05, 0.01, true),
+        ];
+        let series = plot_series(&rows, &["traced", "silhouette"], crate::methods::METHODS);
+        let names: Vec<(&str, usize)> = series.iter().map(|s| (s.family, s.points.len())).collect();
+        assert_eq!(names, vec![("traced", 2), ("silhouette", 1), ("traced plain", 1)]);
+    }
 
     #[test]
     fn bench_size_scales_scenes_down_to_the_bench_width() {

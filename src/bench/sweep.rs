@@ -31,7 +31,7 @@ mod tests {
     use renderer::methods::traced::PLAIN_LABEL;
 
     #[test]
-    fn the_sweep_holds_every_family_and_one_edge_table_default() {
+    fn the_sweep_holds_every_family_and_one_headline() {
         for quick in [false, true] {
             let s = sweep(quick, METHODS);
             // Every method but `none` (the cost floor, run on its own) has settings.
@@ -70,7 +70,7 @@ mod tests {
     /// retired `depth_march`'s one row, after traced's, is gone).
     #[test]
     fn the_sweep_keeps_its_labels_and_order() {
-        let shipped = ["traced", "edge_table", "pcss"];
+        let shipped = ["traced", "edge_table", "pcss", "silhouette"];
         let labels = |quick: bool| -> Vec<String> {
             sweep(quick, METHODS)
                 .into_iter()
@@ -86,7 +86,7 @@ mod tests {
         for n in [16, 64, 256] {
             full.push(format!("edge_table exact N={n} {n}"));
         }
-        full.push("edge_table exact N=1024 1024 headline".into());
+        full.push("edge_table exact N=1024 1024".into());
         for map in [256, 512] {
             for grid in ["2x2x8", "4x4x4", "8x8x4"] {
                 for blend in ["nearest", "trilinear"] {
@@ -97,6 +97,10 @@ mod tests {
         for n in [64, 256, 1024] {
             full.push(format!("pcss 256 N={n} {n}"));
         }
+        // The headline: the fast exact method at the top count.
+        for n in [64, 256, 1024, 4096] {
+            full.push(format!("silhouette N={n} {n}{}", if n == 1024 { " headline" } else { "" }));
+        }
         assert_eq!(labels(false), full);
         let quick = [
             "traced N=4 4",
@@ -104,10 +108,12 @@ mod tests {
             "traced N=64 64",
             "traced plain N=64 64",
             "edge_table exact N=16 16",
-            "edge_table exact N=64 64 headline",
+            "edge_table exact N=64 64",
             "edge_table published 256 2x2x8 nearest N=64 64",
             "edge_table published 256 2x2x8 trilinear N=64 64",
             "pcss 256 N=64 64",
+            "silhouette N=16 16",
+            "silhouette N=64 64 headline",
         ];
         assert_eq!(labels(true), quick);
     }

@@ -22,7 +22,7 @@ pub struct SweepSetting {
     /// are at least as costly in every parameter ([`no_costlier`]) are skipped.
     pub cost: Option<Vec<u32>>,
     /// The row the equal-error speedup is computed for (at most one in a sweep; the CSV's
-    /// `edge_table_default` column).
+    /// `headline` column).
     pub headline: bool,
     /// One of the runs the headline is compared with: the speedup is the cost of the
     /// cheapest reference run at or below the headline's error over the headline's cost.

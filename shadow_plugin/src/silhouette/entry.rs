@@ -2,6 +2,7 @@
 //! its bench sweep and its plot colour.
 
 use super::SilhouetteParams;
+use renderer::interface::entry::top_samples;
 use renderer::{MethodEntry, SweepSetting};
 
 impl MethodEntry for SilhouetteParams {
@@ -14,12 +15,30 @@ impl MethodEntry for SilhouetteParams {
     const TRACES_KEPT_INSTANCES: bool = true;
 
     /// Over sample counts: its error is `traced`'s at the same N (the same samples, settled
-    /// exactly), so its curve lies on `traced`'s error axis at its own cost.
+    /// exactly), so its curve lies on `traced`'s error axis at its own cost. The bench's
+    /// headline, the fast exact method a user should pick, is its top count.
     fn sweep(quick: bool) -> Vec<SweepSetting> {
         let counts: &[u32] = if quick { &[16, 64] } else { &[64, 256, 1024, 4096] };
         counts
             .iter()
-            .map(|&n| SweepSetting::new(format!("silhouette N={n}"), SilhouetteParams::new(n), n))
+            .map(|&n| SweepSetting {
+                headline: n == top_samples(quick),
+                ..SweepSetting::new(format!("silhouette N={n}"), SilhouetteParams::new(n), n)
+            })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_headline_is_the_top_count() {
+        for quick in [false, true] {
+            let heads: Vec<u32> =
+                SilhouetteParams::sweep(quick).iter().filter(|x| x.headline).map(|x| x.samples).collect();
+            assert_eq!(heads, vec![top_samples(quick)], "quick {quick}");
+        }
     }
 }
