@@ -2,16 +2,12 @@
 //! every image and plot exists and opens, the truth is cached and recomputed when the scene
 //! changes, and bad input is a one-line error with nothing written.
 
+#[path = "common/folders.rs"]
+mod folders;
+use folders::temp_dir;
 use penumbra::methods::METHODS;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("penumbra-bench-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn bench(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_penumbra")).arg("bench").args(args).output().unwrap()

@@ -1,50 +1,16 @@
 //! The command line as a user meets it: outputs, determinism across thread counts, and bad
 //! input (one line naming file and key, exit status 2, nothing written).
 
+#[path = "common/folders.rs"]
+mod folders;
+#[macro_use]
+#[path = "common/tiny_scene.rs"]
+mod tiny_scene;
+use folders::{penumbra, temp_dir};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 
-fn penumbra(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_penumbra")).args(args).current_dir(cwd).output().expect("penumbra runs")
-}
-
-/// A fresh, empty folder for one test.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("penumbra-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-const SCENE: &str = r#"
-[camera]
-position = [0.0, 2.0, 3.0]
-look_at = [0.0, 0.0, 0.0]
-
-[image]
-width = 48
-height = 32
-
-[[quad]]
-center = [0.0, 0.0, 0.0]
-u = [2.0, 0.0, 0.0]
-v = [0.0, 0.0, -2.0]
-
-[[quad]]
-center = [0.0, 0.5, 0.0]
-u = [0.5, 0.0, 0.0]
-v = [0.0, 0.0, -0.5]
-
-[[light]]
-center = [0.2, 1.5, 0.1]
-u = [0.5, 0.0, 0.0]
-v = [0.0, 0.0, 0.5]
-radiance = [4.0, 4.0, 4.0]
-
-[shadows]
-method = "traced"
-samples = 16
-"#;
+const SCENE: &str = card_scene!("[shadows]\nmethod = \"traced\"\nsamples = 16\n");
 
 #[test]
 fn same_bytes_with_one_and_two_threads() {

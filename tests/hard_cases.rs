@@ -43,8 +43,11 @@
 //! the shadowed receivers) give the values in the bounds' comments below. With the previous
 //! grid, 4 x 4 x 4, every case was within 0.002 RMSE of them and the tiny light identical.
 
+#[path = "common/folders.rs"]
+mod folders;
+use folders::temp_dir;
 use shadow_plugin::{EdgeTableParams, PublishedParams, Reading};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
 #[path = "common/quads.rs"]
@@ -174,14 +177,6 @@ fn floor(hx: f64, hz: f64) -> Quad {
 
 fn camera(position: V3, look_at: V3) -> Camera {
     Camera { position, look_at, up: [0.0, 1.0, 0.0], yfov_deg: 40.0 }
-}
-
-/// A fresh, empty folder for one test.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("penumbra-hard-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 /// A visibility AOV, row-major: -1 where the primary ray misses.

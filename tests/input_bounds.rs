@@ -4,16 +4,15 @@
 //! --quiet) and the same lines under `warnings` in the run report; glTF load errors name the
 //! file that failed; SIGINT/SIGTERM leave no temporary file.
 
+#[path = "common/folders.rs"]
+mod folders;
+use folders::penumbra;
 mod common;
 
 use common::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive};
 use serde_json::json;
 use std::path::Path;
 use std::process::{Command, Output};
-
-fn penumbra(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_penumbra")).args(args).current_dir(cwd).output().expect("penumbra runs")
-}
 
 const CAMERA_AND_LIGHT: &str = r#"
 [camera]

@@ -3,46 +3,16 @@
 //! setting and the memory it would need (exit 2, nothing written). The budget is set through
 //! `PENUMBRA_MASK_BUDGET_MIB` so that the answers do not depend on the machine.
 
-use std::path::{Path, PathBuf};
+#[path = "common/folders.rs"]
+mod folders;
+#[macro_use]
+#[path = "common/tiny_scene.rs"]
+mod tiny_scene;
+use folders::temp_dir;
+use std::path::Path;
 use std::process::{Command, Output};
 
-/// A fresh, empty folder for one test.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("penumbra-budget-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-const SCENE: &str = r#"
-[camera]
-position = [0.0, 2.0, 3.0]
-look_at = [0.0, 0.0, 0.0]
-
-[image]
-width = 48
-height = 32
-
-[[quad]]
-center = [0.0, 0.0, 0.0]
-u = [2.0, 0.0, 0.0]
-v = [0.0, 0.0, -2.0]
-
-[[quad]]
-center = [0.0, 0.5, 0.0]
-u = [0.5, 0.0, 0.0]
-v = [0.0, 0.0, -0.5]
-
-[[light]]
-center = [0.2, 1.5, 0.1]
-u = [0.5, 0.0, 0.0]
-v = [0.0, 0.0, 0.5]
-radiance = [4.0, 4.0, 4.0]
-
-[shadows]
-method = "edge_table"
-samples = 1024
-"#;
+const SCENE: &str = card_scene!("[shadows]\nmethod = \"edge_table\"\nsamples = 1024\n");
 
 /// Renders `scene` (written as s.toml in `dir`) under a budget of `budget_mib` MiB.
 fn render(dir: &Path, scene: &str, budget_mib: &str, extra: &[&str]) -> Output {

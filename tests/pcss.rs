@@ -13,7 +13,10 @@
 //! Each bound's comment gives the value measured on these scenes; bounds are about 1.5-2x
 //! it. `cargo test --release --test pcss -- --nocapture` prints the metrics.
 
-use std::path::{Path, PathBuf};
+#[path = "common/folders.rs"]
+mod folders;
+use folders::temp_dir;
+use std::path::Path;
 
 #[path = "common/quads.rs"]
 mod quads;
@@ -46,14 +49,6 @@ fn scene_toml(quads: &[Quad], light: &Quad, eye: V3) -> String {
         v(light.u),
         v(light.v)
     )
-}
-
-/// A fresh, empty folder for one test.
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("penumbra-pcss-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 /// Renders `scene` (a scene file's text) with `method`: its visibility AOV, checked.

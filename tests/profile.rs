@@ -2,17 +2,12 @@
 //! contract names them), the cost EXR's layers and the heat map, and that the cost lands where
 //! the work is: penumbra pixels cost more than lit ones.
 
+#[path = "common/folders.rs"]
+mod folders;
+use folders::temp_dir;
 use renderer::util::profile::PixelCost;
 use serde_json::Value;
 use std::collections::HashMap;
-use std::path::PathBuf;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("penumbra-profile-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// A span of the trace: name, thread, start and end (µs), and its args.
 #[derive(Debug, Clone)]

@@ -24,8 +24,12 @@ fn far_quad(x: f64) -> String {
 
 /// The frame `traced` renders of `scene` at 160 x 120, 64 samples, seed 7, direct light.
 fn traced_frame(scene: &Scene) -> Frame {
-    let mut methods: Vec<Box<dyn LightShadowing>> =
-        vec![Box::new(Traced::new(TracedParams { samples: 64, ..TracedParams::default() }))];
+    frame_with(scene, Box::new(Traced::new(TracedParams { samples: 64, ..TracedParams::default() })))
+}
+
+/// The frame `method` renders of `scene` at 160 x 120, seed 7, direct light.
+fn frame_with(scene: &Scene, method: Box<dyn LightShadowing>) -> Frame {
+    let mut methods = vec![method];
     let settings = RenderSettings {
         width: 160,
         height: 120,
@@ -384,19 +388,8 @@ fn edge_table_warns_where_far_geometry_widens_its_margins() {
 /// `edge_table`'s work (shadow rays traced, edge lookups) on the default scene with its floor
 /// enlarged, 160 x 120 at 64 samples.
 fn edge_table_work(size: f64) -> u64 {
-    let scene = huge_floor_scene(size);
-    let mut methods: Vec<Box<dyn LightShadowing>> =
-        vec![Box::new(shadow_plugin::EdgeTable::new(shadow_plugin::EdgeTableParams::default(), 64))];
-    let settings = RenderSettings {
-        width: 160,
-        height: 120,
-        spp: 1,
-        seed: 7,
-        memory_budget_bytes: 1 << 30,
-        profile: false,
-        max_depth: 2,
-    };
-    let frame = render(&scene, &mut methods, &settings, &|_| {}).unwrap();
+    let edge_table = shadow_plugin::EdgeTable::new(shadow_plugin::EdgeTableParams::default(), 64);
+    let frame = frame_with(&huge_floor_scene(size), Box::new(edge_table));
     let c = &frame.counters;
     ["shadow_rays", "fallback_shadow_rays", "edge_lookups"]
         .iter()

@@ -3,6 +3,9 @@
 //! with and without paths; a bad set of tiles is refused on one line, exit 2, nothing
 //! written.
 
+#[path = "common/folders.rs"]
+mod folders;
+use folders::temp_dir;
 #[path = "common/tiny_scene.rs"]
 mod tiny_scene;
 
@@ -12,13 +15,6 @@ use penumbra::tile::TileSpec;
 use penumbra::{RenderArgs, run_render};
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("penumbra-tiles-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// The tiny scene with two lights that shade it and a third that faces up, away from
 /// everything (so the frame warns of it); its top rows see only sky (so the first of 16
