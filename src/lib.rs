@@ -9,6 +9,7 @@ pub mod key_reference;
 pub mod memory;
 pub mod merge;
 pub mod methods;
+pub mod output;
 pub mod profile;
 pub mod progress;
 pub mod report;
@@ -18,7 +19,7 @@ pub mod tile;
 use crate::config::ShadowsConfig;
 use crate::progress::PhaseProgress;
 use crate::report::{RunReport, Timings};
-use renderer::util::output::StagedFiles;
+use crate::output::StagedFiles;
 use renderer::{
     Frame, KeepInstances, LoadOptions, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod,
 };
@@ -316,7 +317,7 @@ fn png_path(args: &RenderArgs, scene_path: &Path) -> Result<PathBuf, CliError> {
     // Before the render, not after it (the files themselves are still written all or
     // nothing, at the end).
     let folder = png.parent().unwrap_or(Path::new(""));
-    renderer::util::output::check_writable_folder(folder).map_err(|e| SceneError::new(&png, "--out", e))?;
+    crate::output::check_writable_folder(folder).map_err(|e| SceneError::new(&png, "--out", e))?;
     Ok(png)
 }
 
@@ -374,7 +375,7 @@ pub(crate) fn stage_images(
     let (width, height) = (px.width, px.height);
     // A NaN or an infinity never reaches a file: refuse before anything is staged.
     let exr = png.with_extension("exr");
-    renderer::util::output::check_finite(px.radiance).map_err(|e| {
+    crate::output::check_finite(px.radiance).map_err(|e| {
         SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
     })?;
     create_output_folder(png)?;
@@ -488,7 +489,7 @@ pub fn exit_cleanly_on_signals() {
     };
     std::thread::spawn(move || {
         if let Some(signal) = signals.forever().next() {
-            let removed = renderer::util::output::remove_staged_files();
+            let removed = crate::output::remove_staged_files();
             let name = if signal == SIGINT { "SIGINT" } else { "SIGTERM" };
             eprintln!("penumbra: interrupted by {name}; removed {removed} temporary file(s)");
             std::process::exit(128 + signal);

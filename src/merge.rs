@@ -7,7 +7,7 @@ use crate::report::{ProfileTotals, RunReport, TileInfo, TileRun, Timings};
 use crate::tile::PixelDigest;
 use crate::{CliError, Pixels, stage_images, stage_profile};
 use glam::Vec3;
-use renderer::util::output::StagedFiles;
+use crate::output::StagedFiles;
 use renderer::util::profile::{PixelCost, Work};
 use renderer::{FrameTally, SceneError};
 use std::collections::BTreeMap;
@@ -49,7 +49,7 @@ pub fn run_merge(args: &MergeArgs) -> Result<RunReport, CliError> {
     if png.extension().and_then(|e| e.to_str()) != Some("png") {
         return Err(SceneError::new(png, "--out", "must name a .png file"));
     }
-    renderer::util::output::check_writable_folder(png.parent().unwrap_or(Path::new("")))
+    crate::output::check_writable_folder(png.parent().unwrap_or(Path::new("")))
         .map_err(|e| SceneError::new(png, "--out", e))?;
     let mut tiles = args.tiles.iter().map(|p| read_tile(p)).collect::<Result<Vec<_>, _>>()?;
     check_tiles(&tiles)?;

@@ -76,7 +76,7 @@ pub fn cost_exr(
     let layer = Layer::new(
         (width as usize, height as usize),
         LayerAttributes::default(),
-        renderer::util::output::EXR_ENCODING,
+        crate::output::EXR_ENCODING,
         channels,
     );
     let mut out = std::io::Cursor::new(Vec::new());

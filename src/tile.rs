@@ -10,7 +10,7 @@
 //! sRGB would lose what the merge needs.
 
 use glam::Vec3;
-use renderer::util::output::StagedFiles;
+use crate::output::StagedFiles;
 use renderer::{Frame, SceneError, SceneFile};
 use std::hash::{DefaultHasher, Hasher};
 use std::path::{Path, PathBuf};
@@ -162,7 +162,7 @@ pub fn stage_tile_images(
 ) -> Result<Vec<PathBuf>, SceneError> {
     let (width, rows) = (frame.width, frame.rows.len() as u32);
     let exr = png.with_extension("exr");
-    renderer::util::output::check_finite(&frame.radiance).map_err(|e| {
+    crate::output::check_finite(&frame.radiance).map_err(|e| {
         SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
     })?;
     crate::create_output_folder(png)?;

@@ -84,7 +84,7 @@ fn visibility_aov_is_minus_one_on_misses_and_in_unit_range_on_hits() {
             assert!(g.0[2] > g.0[0] && g.0[0] == 0, "a miss is blue: {:?}", g.0);
         } else {
             assert!(g.0[0] == g.0[1] && g.0[1] == g.0[2], "grey: {:?}", g.0);
-            let expected = renderer::util::output::encode_srgb8(v) as i32;
+            let expected = penumbra::output::encode_srgb8(v) as i32;
             assert!((g.0[0] as i32 - expected).abs() <= 1, "{v} -> {:?}, expected {expected}", g.0);
         }
     }

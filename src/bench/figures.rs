@@ -7,7 +7,7 @@ use super::report::BestFigures;
 use super::truth::Truth;
 use crate::heat;
 use glam::Vec3;
-use renderer::util::output::StagedFiles;
+use crate::output::StagedFiles;
 use renderer::util::profile::PixelCost;
 use renderer::{Frame, RenderSettings};
 use std::path::Path;

@@ -32,7 +32,7 @@ pub use sweep::{Setting, sweep};
 
 use crate::methods::{METHODS, Registered};
 use renderer::SceneError;
-use renderer::util::output::StagedFiles;
+use crate::output::StagedFiles;
 use std::path::{Path, PathBuf};
 
 /// `penumbra bench` options.
@@ -132,7 +132,7 @@ pub fn run_bench_in(args: &BenchArgs, methods: &[Registered]) -> Result<String, 
     // A bad budget variable, or a folder the reports cannot be written in, is refused
     // before any scene is benched (the reports are written at the end).
     crate::memory::budget_override()?;
-    renderer::util::output::check_writable_folder(&out).map_err(|e| SceneError::new(&out, "--out", e))?;
+    crate::output::check_writable_folder(&out).map_err(|e| SceneError::new(&out, "--out", e))?;
     std::fs::create_dir_all(&out)
         .map_err(|e| SceneError::new(&out, "--out", format!("cannot create the folder: {e}")))?;
 

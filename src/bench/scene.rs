@@ -7,7 +7,7 @@ use super::sweep::{Setting, no_costlier, none_setting};
 use super::truth::Truth;
 use super::{BENCH_WIDTH, BenchArgs, QUICK_WIDTH, cost, figures, metrics, plot, truth};
 use crate::methods::Registered;
-use renderer::util::output::StagedFiles;
+use crate::output::StagedFiles;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile};
 use std::path::{Path, PathBuf};
 

@@ -12,7 +12,7 @@
 //! bump [`TRUTH_VERSION`] (or the cache folder be removed).
 
 use glam::Vec3;
-use renderer::util::output::StagedFiles;
+use crate::output::StagedFiles;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, Traced, TracedParams, render};
 use serde::{Deserialize, Serialize};
 use std::hash::{DefaultHasher, Hasher};

@@ -3,6 +3,5 @@
 
 pub mod error;
 pub mod keys;
-pub mod output;
 pub mod profile;
 pub mod sampling;
