@@ -17,9 +17,9 @@ pub mod scene_files;
 pub mod tile;
 
 use crate::config::ShadowsConfig;
+use crate::output::StagedFiles;
 use crate::progress::PhaseProgress;
 use crate::report::{RunReport, Timings};
-use crate::output::StagedFiles;
 use renderer::{
     Frame, KeepInstances, LoadOptions, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod,
 };

@@ -3,11 +3,11 @@
 //! aside). Every tile is read and checked before anything is staged, and the outputs are
 //! committed together: a bad set of tiles writes nothing.
 
+use crate::output::StagedFiles;
 use crate::report::{ProfileTotals, RunReport, TileInfo, TileRun, Timings};
 use crate::tile::PixelDigest;
 use crate::{CliError, Pixels, stage_images, stage_profile};
 use glam::Vec3;
-use crate::output::StagedFiles;
 use renderer::util::profile::{PixelCost, Work};
 use renderer::{FrameTally, SceneError};
 use std::collections::BTreeMap;

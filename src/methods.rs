@@ -1,14 +1,16 @@
 //! The registry: every shadow method by name. This is the one place that knows every
 //! plugin, one line each. Everything else about a method lives in its own folder: its
 //! parameters, defaults, checks and constructor ([`renderer::MethodParams`]), and its help
-//! line, key reference section, bench sweep and plot colour ([`renderer::MethodEntry`]). The
+//! line and key reference section ([`renderer::MethodEntry`]), its bench sweep and plot colour
+//! ([`bench_entry::BenchEntry`]). The
 //! scene file's `[shadows]`, `--shadows`, the bench and the key reference loop over
 //! [`METHODS`] (or a registry given in its place, in tests). A retired method leaves
 //! [`METHODS`] for [`RETIRED`]: its code stays a library, and a scene file that still names
 //! it gets an error saying what to use instead.
 
+use bench_entry::{BenchEntry, SweepSetting};
 use renderer::interface::method::{default_table, parse_boxed};
-use renderer::{MethodEntry, SceneError, ShadowMethod, SweepSetting, TracedParams, Unshadowed};
+use renderer::{MethodEntry, SceneError, ShadowMethod, TracedParams, Unshadowed};
 use shadow_plugin::{EdgeTableParams, PcssParams, SilhouetteParams};
 use std::path::Path;
 
@@ -16,7 +18,7 @@ use std::path::Path;
 pub type ParseFn = fn(&toml::Table, &Path, &str) -> Result<Box<dyn ShadowMethod>, SceneError>;
 
 /// One method: what the rest of the program needs to know of it, read off its
-/// [`MethodEntry`] implementation.
+/// [`MethodEntry`] and [`BenchEntry`] implementations.
 #[derive(Clone, Copy)]
 pub struct Registered {
     pub name: &'static str,
@@ -44,7 +46,7 @@ pub struct Registered {
 
 impl Registered {
     /// The entry of method `M`.
-    pub const fn of<M: MethodEntry>() -> Self {
+    pub const fn of<M: MethodEntry + BenchEntry>() -> Self {
         Self {
             name: M::NAME,
             about: M::ABOUT,

@@ -9,8 +9,8 @@
 //! heat map marks misses) and `PATH.trace.json`, and its report `PATH.json`. No PNG: 8-bit
 //! sRGB would lose what the merge needs.
 
-use glam::Vec3;
 use crate::output::StagedFiles;
+use glam::Vec3;
 use renderer::{Frame, SceneError, SceneFile};
 use std::hash::{DefaultHasher, Hasher};
 use std::path::{Path, PathBuf};

@@ -4,15 +4,16 @@
 //! errors), `--shadows`, the bench (its sweep, rows, plot colour, figures and headline) and
 //! the key reference.
 
+use bench_entry::top_samples;
+use bench_entry::{BenchEntry, SweepSetting};
 use penumbra::bench::plot::{Style, style};
 use penumbra::bench::{BenchArgs, run_bench_in, sweep};
 use penumbra::config::ShadowsConfig;
 use penumbra::key_reference::{page, section_errors, sections};
 use penumbra::methods::{METHODS, Registered, find, names, retired, value_parser_of};
-use renderer::interface::entry::top_samples;
 use renderer::{
     KeyError, LightShadowing, MethodEntry, MethodParams, PrepareContext, Scene, SceneError, ShadowError,
-    ShadowMethod, ShadowQuery, SweepSetting,
+    ShadowMethod, ShadowQuery,
 };
 use serde::{Deserialize, Serialize};
 use shadow_plugin::DepthMarchParams;
@@ -72,6 +73,9 @@ impl MethodEntry for ToyParams {
 |---|---|---|---|
 | `level` | float | `0.5` | the visibility every point gets, in [0, 1] |
 ";
+}
+
+impl BenchEntry for ToyParams {
     const COLOUR: [u8; 3] = TOY_COLOUR;
     fn sweep(quick: bool) -> Vec<SweepSetting> {
         let n = top_samples(quick);

@@ -19,7 +19,7 @@ pub use geometry::scene::{Scene, SurfaceHit};
 pub use geometry::shaft::Shaft;
 pub use integrator::render::{Frame, RenderSettings, render, render_rows};
 pub use integrator::tally::FrameTally;
-pub use interface::entry::{MethodEntry, SweepSetting};
+pub use interface::entry::MethodEntry;
 pub use interface::method::{KeyError, MethodParams, ShadowMethod, parse_method};
 pub use interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
 pub use load::config::SceneFile;

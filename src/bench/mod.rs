@@ -31,8 +31,8 @@ pub use report::{Row, SceneResult, Speedup};
 pub use sweep::{Setting, sweep};
 
 use crate::methods::{METHODS, Registered};
-use renderer::SceneError;
 use crate::output::StagedFiles;
+use renderer::SceneError;
 use std::path::{Path, PathBuf};
 
 /// `penumbra bench` options.

@@ -315,7 +315,7 @@ fn row(base: &Baseline, s: &Setting, run: &Run) -> Row {
 /// (the shaft-culled curve's reference, no culling) its own grey series, not a zigzag on
 /// `traced`'s line.
 fn plot_series<'a>(rows: &[Row], families: &[&'a str], methods: &[Registered]) -> Vec<plot::Series<'a>> {
-    let plain = |r: &&Row| r.setting.starts_with(renderer::methods::traced::PLAIN_LABEL);
+    let plain = |r: &&Row| r.setting.starts_with(bench_entry::PLAIN_LABEL);
     let points =
         |rows: &mut dyn Iterator<Item = &Row>| rows.map(|r| (r.shadow_cost_s, r.errors.rmse)).collect();
     let mut series: Vec<plot::Series> = families
@@ -328,7 +328,7 @@ fn plot_series<'a>(rows: &[Row], families: &[&'a str], methods: &[Registered]) -
         .collect();
     if rows.iter().any(|r| plain(&r)) {
         series.push(plot::Series {
-            family: renderer::methods::traced::PLAIN_LABEL,
+            family: bench_entry::PLAIN_LABEL,
             style: plot::Style { colour: [127, 127, 127], line: true },
             points: points(&mut rows.iter().filter(plain)),
         });

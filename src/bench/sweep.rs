@@ -4,11 +4,11 @@
 //! equal-error speedup) is said by the setting itself ([`Setting`]), never by a method's name.
 
 use crate::methods::Registered;
+pub(super) use bench_entry::no_costlier;
 use renderer::Unshadowed;
-pub(super) use renderer::interface::entry::no_costlier;
 
 /// One setting of the sweep.
-pub use renderer::SweepSetting as Setting;
+pub use bench_entry::SweepSetting as Setting;
 
 /// The no-shadow floor every cost is measured against.
 pub(super) fn none_setting() -> Setting {
@@ -27,8 +27,8 @@ pub fn sweep(quick: bool, methods: &[Registered]) -> Vec<Setting> {
 mod tests {
     use super::*;
     use crate::methods::METHODS;
+    use bench_entry::PLAIN_LABEL;
     use renderer::TracedParams;
-    use renderer::methods::traced::PLAIN_LABEL;
 
     #[test]
     fn the_sweep_holds_every_family_and_one_headline() {

@@ -11,8 +11,8 @@
 //! Code is not in the key: a change to `traced`, the loader or the frame's conventions must
 //! bump [`TRUTH_VERSION`] (or the cache folder be removed).
 
-use glam::Vec3;
 use crate::output::StagedFiles;
+use glam::Vec3;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, Traced, TracedParams, render};
 use serde::{Deserialize, Serialize};
 use std::hash::{DefaultHasher, Hasher};

@@ -3,7 +3,7 @@
 
 use crate::geometry::light::RectLight;
 use crate::geometry::scene::Scene;
-use crate::interface::entry::{MethodEntry, SweepSetting, top_samples};
+use crate::interface::entry::MethodEntry;
 use crate::interface::method::{KeyError, MethodParams, NoKeys, ShadowMethod};
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
 use crate::methods::irradiance_share::ShareTally;
@@ -49,12 +49,6 @@ impl MethodEntry for Unshadowed {
     const TRACES_KEPT_INSTANCES: bool = true;
     const ABOUT: &'static str = "No shadows (V = 1): the cost floor";
     const KEYS_DOC: &'static str = "No keys.\n";
-    /// The colour the plots give a family they do not know (`none` is never plotted).
-    const COLOUR: [u8; 3] = [148, 103, 189];
-    /// None: the bench runs `none` on its own, as the cost floor of every setting.
-    fn sweep(_quick: bool) -> Vec<SweepSetting> {
-        Vec::new()
-    }
 }
 
 impl LightShadowing for Unshadowed {
@@ -136,37 +130,12 @@ impl MethodParams for TracedParams {
     }
 }
 
-/// Label prefix of the bench's plain traced reference: reported, but not a reference of the
-/// equal-error speedup (that compares with `traced` as it ships, shaft-culled).
-pub const PLAIN_LABEL: &str = "traced plain";
-
 impl MethodEntry for TracedParams {
     const TRACES_KEPT_INSTANCES: bool = true;
     const ABOUT: &'static str =
         "Shadow rays through the BVH to `samples` stratified points on the light: the truth";
     const KEYS_DOC: &'static str = "No keys: the samples are `[shadows].samples`. Shaft culling (proving \
         bundles of rays\nunblocked with one BVH query) is always on; it changes no bit, only the cost.\n";
-    const COLOUR: [u8; 3] = [90, 90, 90];
-    /// One parameter (N): a curve.
-    const PLOT_LINE: bool = true;
-    const BENCH_RANK: u32 = 0;
-
-    /// Shaft-culled over sample counts (the references of the equal-error speedup), then the
-    /// plain reference at the top count: every ray traced, no shaft culling (the same bits as
-    /// `traced N=1024`, so the cost of culling's absence is read off side by side).
-    fn sweep(quick: bool) -> Vec<SweepSetting> {
-        let counts: &[u32] = if quick { &[4, 16, 64] } else { &[4, 16, 64, 256, 1024] };
-        let mut out: Vec<SweepSetting> = counts
-            .iter()
-            .map(|&n| SweepSetting {
-                reference: true,
-                ..SweepSetting::new(format!("traced N={n}"), TracedParams::new(n), n)
-            })
-            .collect();
-        let n = top_samples(quick);
-        out.push(SweepSetting::new(format!("{PLAIN_LABEL} N={n}"), TracedParams::plain(n), n));
-        out
-    }
 }
 
 /// The ground truth: `samples` stratified, jittered points on the part of the light above the

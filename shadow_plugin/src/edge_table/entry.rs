@@ -3,17 +3,31 @@
 //! plot colour.
 
 use super::{Blend, EdgeTableParams, PublishedParams, Reading};
+use bench_entry::top_samples;
+use bench_entry::{BenchEntry, SweepSetting};
+use renderer::MethodEntry;
 use renderer::MethodParams;
-use renderer::interface::entry::top_samples;
 use renderer::interface::method::default_table;
-use renderer::{MethodEntry, SweepSetting};
 
 impl MethodEntry for EdgeTableParams {
     const ABOUT: &'static str = "Edge-table masks (Egan & Neulander 2004) classifying each ray against conservative depth bounds; the BVH traces only what they cannot settle: exact";
     const KEYS_DOC: &'static str = include_str!("keys.md");
+
+    /// The default's keys, and the published reading's own keys (inapplicable to the default,
+    /// exact reading) with their values under `reading = "published"`.
+    fn documented_keys() -> toml::Table {
+        let mut keys = default_table::<Self>();
+        let mut published_keys =
+            toml::Table::try_from(published().table()).expect("edge_table's parameters serialise");
+        published_keys.retain(|k, _| !keys.contains_key(k));
+        keys.extend(published_keys);
+        keys
+    }
+}
+
+impl BenchEntry for EdgeTableParams {
     const COLOUR: [u8; 3] = [214, 39, 40];
     const BENCH_RANK: u32 = 20;
-
     /// The exact reading (the default) over sample counts; then the published reading over
     /// depth maps, grids and blends. (The headline is `silhouette`'s: the fast exact method.)
     fn sweep(quick: bool) -> Vec<SweepSetting> {
@@ -51,17 +65,6 @@ impl MethodEntry for EdgeTableParams {
         }
         out
     }
-
-    /// The default's keys, and the published reading's own keys (inapplicable to the default,
-    /// exact reading) with their values under `reading = "published"`.
-    fn documented_keys() -> toml::Table {
-        let mut keys = default_table::<Self>();
-        let mut published_keys =
-            toml::Table::try_from(published().table()).expect("edge_table's parameters serialise");
-        published_keys.retain(|k, _| !keys.contains_key(k));
-        keys.extend(published_keys);
-        keys
-    }
 }
 
 /// The published reading at its defaults.
@@ -89,7 +92,7 @@ fn cost_order(p: &EdgeTableParams, samples: u32) -> Vec<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use renderer::interface::entry::no_costlier;
+    use bench_entry::no_costlier;
 
     #[test]
     fn costlier_edge_table_settings_are_the_ones_skipped() {

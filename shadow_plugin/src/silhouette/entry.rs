@@ -2,18 +2,21 @@
 //! its bench sweep and its plot colour.
 
 use super::SilhouetteParams;
-use renderer::interface::entry::top_samples;
-use renderer::{MethodEntry, SweepSetting};
+use bench_entry::top_samples;
+use bench_entry::{BenchEntry, SweepSetting};
+use renderer::MethodEntry;
 
 impl MethodEntry for SilhouetteParams {
     const ABOUT: &'static str = "Exact soft shadows from the occluders' silhouette edges: traced's samples counted, one ray per point";
     const KEYS_DOC: &'static str = include_str!("keys.md");
+    const TRACES_KEPT_INSTANCES: bool = true;
+}
+
+impl BenchEntry for SilhouetteParams {
     const COLOUR: [u8; 3] = [23, 190, 207];
     /// One parameter (N): a curve, like `traced`'s.
     const PLOT_LINE: bool = true;
     const BENCH_RANK: u32 = 40;
-    const TRACES_KEPT_INSTANCES: bool = true;
-
     /// Over sample counts: its error is `traced`'s at the same N (the same samples, settled
     /// exactly), so its curve lies on `traced`'s error axis at its own cost. The bench's
     /// headline, the fast exact method a user should pick, is its top count.
