@@ -17,4 +17,5 @@ pub mod ray_origin;
 pub mod scene;
 pub mod scene_bvh;
 pub mod shaft;
+mod shaft_plane;
 pub mod watertight;

@@ -35,6 +35,7 @@ use crate::geometry::light::RectLight;
 use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::{SHADOW_EPSILON, gamma, offset_origin};
 use crate::geometry::scene::Scene;
+use crate::geometry::shaft_plane;
 use glam::{Vec3, Vec3A};
 use obvhs::bvh2::node::Bvh2Node;
 
@@ -304,71 +305,11 @@ impl Shaft {
         // products stay finite and normal; in f64 otherwise (a triangle over ~4e9 m wide
         // overflowed |n|^2 and disabled every shaft next to it: `traced` cast 6.9x the rays
         // beside a 1e10 m floor).
-        match self.plane_separates(v0, v1, v2) {
+        let (hull, slack) = (&self.vertices, self.slack);
+        match shaft_plane::separates(hull, slack, [v0, v1, v2]) {
             Some(separated) => separated,
-            None => self.plane_separates_f64(v0, v1, v2),
+            None => shaft_plane::separates_f64(hull, slack, [v0, v1, v2]),
         }
-    }
-
-    /// [`Shaft::triangle_outside`]'s plane axis in f32; `None` where a product overflows or
-    /// underflows (the f64 test decides).
-    #[inline]
-    fn plane_separates(&self, v0: Vec3A, v1: Vec3A, v2: Vec3A) -> Option<bool> {
-        let (e1, e2) = (v1 - v0, v2 - v0);
-        let n = e1.cross(e2);
-        let len = n.length();
-        if !is_positive(len) || !len.is_finite() || len < 1e-18 {
-            return None;
-        }
-        let na = n.abs();
-        let proj = |w: Vec3A| (n.dot(w), gamma(5) * na.dot(w.abs()));
-        let (mut tri_lo, mut tri_hi) = (0.0f32, 0.0f32);
-        for w in [e1, e2] {
-            let (s, r) = proj(w);
-            tri_lo = tri_lo.min(s - r);
-            tri_hi = tri_hi.max(s + r);
-        }
-        let margin = self.slack * len;
-        let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
-        for v in self.vertices {
-            let (s, r) = proj(v - v0);
-            lo = lo.min(s - r);
-            hi = hi.max(s + r);
-        }
-        let all = [tri_lo, tri_hi, margin, lo, hi];
-        all.iter().all(|x| x.is_finite()).then_some(lo > tri_hi + margin || hi < tri_lo - margin)
-    }
-
-    /// The plane axis in f64 (the f32 coordinates are exact there; every product of them
-    /// is finite): the same test with f64's rounding bound. `false` for a triangle of no
-    /// area.
-    #[cold]
-    fn plane_separates_f64(&self, v0: Vec3A, v1: Vec3A, v2: Vec3A) -> bool {
-        let [v0, v1, v2] = [v0, v1, v2].map(|v| Vec3::from(v).as_dvec3());
-        let (e1, e2) = (v1 - v0, v2 - v0);
-        let n = e1.cross(e2);
-        let len = n.length();
-        if !(len > 0.0 && len.is_finite()) {
-            return false;
-        }
-        // gamma(6) in f64: the subtraction, three products and two sums.
-        let g = 6.0 * f64::EPSILON / (2.0 - 6.0 * f64::EPSILON);
-        let na = n.abs();
-        let proj = |w: glam::DVec3| (n.dot(w), g * na.dot(w.abs()));
-        let (mut tri_lo, mut tri_hi) = (0.0f64, 0.0f64);
-        for w in [e1, e2] {
-            let (s, r) = proj(w);
-            tri_lo = tri_lo.min(s - r);
-            tri_hi = tri_hi.max(s + r);
-        }
-        let margin = self.slack as f64 * len;
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for v in self.vertices {
-            let (s, r) = proj(Vec3::from(v).as_dvec3() - v0);
-            lo = lo.min(s - r);
-            hi = hi.max(s + r);
-        }
-        lo > tri_hi + margin || hi < tri_lo - margin
     }
 }
 

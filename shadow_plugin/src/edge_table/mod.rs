@@ -69,6 +69,7 @@ mod grid;
 mod mask;
 pub mod memory;
 mod params;
+mod plan;
 
 pub use crate::heightfield::Heightfield;
 pub use exact::{ExactMap, ExactMask, ExactStats};
@@ -232,133 +233,13 @@ impl EdgeTable {
     }
 }
 
-/// The height masks march to: what the receivers need after region shrinking, up to its
-/// [`MASK_HEIGHT_QUANTILE`]; the few receivers that need more fall back to traced.
-fn mask_height_cap(map: &DepthMap, visible: &[ShadingPoint]) -> f32 {
-    let mut needed: Vec<f32> = visible
-        .par_iter()
-        .filter(|v| !map.grazing(v))
-        .filter_map(|v| {
-            // Points off the map are traced and need no height (with `fit_shadowed` they
-            // are most of a wide floor).
-            map.query_point(v)?;
-            let p = map.frame.light_from_world(v.p);
-            let mp = map.locate(p)?;
-            Some(stop_height(map.stop_depth(mp.pixel, p.z).0, p.z))
-        })
-        .collect();
-    if needed.is_empty() {
-        0.0
-    } else {
-        let q = ((needed.len() - 1) as f64 * MASK_HEIGHT_QUANTILE) as usize;
-        *needed.select_nth_unstable_by(q, f32::total_cmp).1
-    }
-}
-
-/// The published reading's depth levels, and per level its depth and how high its masks
-/// march: far enough for the deepest point it serves, and no further than the receivers need.
-fn published_levels(
-    map: &DepthMap,
-    visible: &[ShadingPoint],
-    gz: u32,
-    blend: Blend,
-) -> (Vec<f32>, Vec<(f32, f32)>) {
-    let _span = tracing::info_span!("depth_levels").entered();
-    let (levels, z_hi) = grid::depth_levels(map, visible, gz);
-    let serve_hi = grid::serve_depths(&levels, z_hi, blend);
-    let h_cap = mask_height_cap(map, visible);
-    let per_level =
-        levels.iter().zip(&serve_hi).map(|(&z, &hi)| (z, stop_height(map.z_min, hi).min(h_cap))).collect();
-    (levels, per_level)
-}
-
-/// The exact reading's depth levels, and per level its depth and march height (what the
-/// receivers' regions need, up to [`MASK_HEIGHT_QUANTILE`]).
-fn exact_levels(map: &ExactMap, visible: &[ShadingPoint], gz: u32) -> (Vec<f32>, Vec<(f32, f32)>) {
-    let _span = tracing::info_span!("depth_levels").entered();
-    let (levels, _) = grid::depth_levels(&map.near, visible, gz);
-    let w_cap = map.stop_reach_quantile(visible, MASK_HEIGHT_QUANTILE);
-    let per_level = levels
-        .iter()
-        .map(|&z| {
-            let s = z * w_cap;
-            (z, if s.is_finite() { s / (1.0 + s) } else { 1.0 })
-        })
-        .collect();
-    (levels, per_level)
-}
-
-/// Depth maps up to this size are built before their masks are estimated (a few ms); a
-/// larger one's masks are first estimated on a map of this size.
-const COARSE_RESOLUTION: u32 = 256;
-
-/// How far over the budget the coarse estimate must be to refuse before the map is built.
-const EARLY_REFUSAL: u64 = 4;
-
 impl EdgeTable {
-    /// Refuses masks the memory budget cannot hold before the depth map is built: their bytes
-    /// estimated from a [`COARSE_RESOLUTION`] map of the same reading (its fit and depth
-    /// levels; the real map's pixel pitch), against the budget less the real map's peak. A
-    /// request the masks' own check (after the map) would refuse is refused here, in
-    /// milliseconds, where the real map took 63 s and 5 GB (depth_map = 8192, grid [16, 16,
-    /// 16], 4096 samples: 172 GiB of masks); an estimate that falls short leaves that check.
-    fn refuse_impossible_masks(&self, ctx: &PrepareContext) -> Result<(), ShadowError> {
-        let res = self.params.resolution;
-        if res <= COARSE_RESOLUTION {
-            return Ok(());
-        }
-        let coarse = EdgeTableParams { resolution: COARSE_RESOLUTION, ..self.params };
-        let gz = self.params.grid[2];
-        let (map, per_level, heightfield, layout) = match &self.params.reading {
-            Reading::Exact => {
-                let stride = ctx.visible.len().div_ceil(exact::QUANTILE_POINTS).max(1);
-                let visible: Vec<ShadingPoint> = ctx.visible.iter().step_by(stride).copied().collect();
-                let (bounds, near) =
-                    DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &coarse.depth_map());
-                let map =
-                    ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() };
-                let (_, per_level) = exact_levels(&map, &visible, gz);
-                (map.near, per_level, Heightfield::Plates, Layout::new(self.params.grid, false))
-            }
-            Reading::Published(p) => {
-                let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &coarse.depth_map());
-                let (_, per_level) = published_levels(&map, ctx.visible, gz, p.blend);
-                (map, per_level, p.heightfield, Layout::new(self.params.grid, self.params.switches.mirrored))
-            }
-        };
-        let pitch = map.pitch * COARSE_RESOLUTION as f32 / res as f32;
-        let half = map.frame.half_size;
-        let budget = ctx.memory_budget_bytes.saturating_sub(memory::map_peak_bytes(&self.params));
-        // Refused here only past EARLY_REFUSAL times the budget: the coarse map's levels
-        // put the estimate within ~2x of the real map's (measured: 301 GiB against 172 GiB
-        // for the request above), and a request near the budget is left to the exact check.
-        let bound = budget.saturating_mul(EARLY_REFUSAL);
-        let estimate = memory::estimate_masks(
-            ctx,
-            &self.params,
-            self.samples,
-            (half, pitch),
-            &layout.built,
-            (heightfield, &per_level),
-            bound,
-        );
-        if estimate.bytes <= bound {
-            return Ok(());
-        }
-        memory::check_masks(&self.params, self.samples, &estimate, budget).map_err(|mut e| {
-            e.message.push_str(&format!(
-                " (estimated on a {COARSE_RESOLUTION}^2 map, before the {res}^2 one was built)"
-            ));
-            e
-        })
-    }
-
     /// The published reading's prepare: the depth map, the depth levels, how high the masks
     /// march, the masks within the memory budget (less the map's bytes).
     fn prepare_published(&self, ctx: &PrepareContext, p: &PublishedParams) -> Result<Prepared, ShadowError> {
         let map = DepthMap::build(ctx.scene, ctx.light, ctx.visible, &self.params.depth_map());
         let budget = ctx.memory_budget_bytes.saturating_sub(map.bytes());
-        let (levels, per_level) = published_levels(&map, ctx.visible, self.params.grid[2], p.blend);
+        let (levels, per_level) = plan::published_levels(&map, ctx.visible, self.params.grid[2], p.blend);
         let layout = Layout::new(self.params.grid, self.params.switches.mirrored);
         let masks = self.build_masks(ctx, &map, &layout.built, p.heightfield, &per_level, budget)?;
         let grid = MaskGrid { dims: self.params.grid, blend: p.blend, levels, cells: layout.cells };
@@ -378,7 +259,7 @@ impl EdgeTable {
             DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &self.params.depth_map());
         let map =
             Box::new(ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() });
-        let (levels, per_level) = exact_levels(&map, &visible, self.params.grid[2]);
+        let (levels, per_level) = plan::exact_levels(&map, &visible, self.params.grid[2]);
         let layout = Layout::new(self.params.grid, false);
         // Classification reads no walls: the masks are built without the `shells` reading's
         // per-side tables.
@@ -537,57 +418,6 @@ impl EdgeTable {
     }
 }
 
-/// The depth map's rounding margins are `gamma(64)` of the scene's largest coordinate (one
-/// margin for every triangle, so that their depth ranges in a pixel compare: see
-/// `depth_map::bounds`), unlike `traced`'s and `silhouette`'s, which follow each triangle.
-/// Far geometry widens them (a 1 m quad 10^5 m away: 0.4 m, 1.25x the rays; at 10^6 m, 4 m:
-/// the map is not built, [`Margins::defeat_the_map`]).
-struct Margins {
-    /// The scene's largest coordinate, the margin it gives, and the light's distance to the
-    /// farthest point it lights (of up to 1024 visible points).
-    bound: f32,
-    margin: f32,
-    reach: f32,
-}
-
-impl Margins {
-    fn of(ctx: &PrepareContext) -> Margins {
-        let bound = ctx.scene.coordinate_bound();
-        let margin = renderer::geometry::ray_origin::gamma(64) * bound;
-        let step = ctx.visible.len().div_ceil(1024).max(1);
-        let reach =
-            ctx.visible.iter().step_by(step).map(|q| (q.p - ctx.light.center).length()).fold(0.0, f32::max);
-        Margins { bound, margin, reach }
-    }
-
-    /// Whether the margin passes 1/8 of the light's reach: the masks then march ever further
-    /// to tell occluders from receivers, and cost more than tracing. Measured on the default
-    /// scene with its floor enlarged (640x480, render seconds; margin / reach): 10^5 m 0.71 s
-    /// (0.044), 2x10^5 0.86 (0.088), 3x10^5 0.91 (0.13), 5x10^5 1.5 (0.22), 7x10^5 4.6 (0.30),
-    /// 10^6 12.9 (0.44: 164 MB of masks, 1.05 G edge lookups); every ray traced, 0.6 s. Past
-    /// it no map is built and every ray is traced.
-    fn defeat_the_map(&self) -> bool {
-        self.reach > 0.0 && self.margin > 0.125 * self.reach
-    }
-
-    /// A warning where the margin exceeds 1/100 of the light's reach.
-    fn warning(&self) -> Option<String> {
-        let Margins { bound, margin, reach } = *self;
-        let cost = if self.defeat_the_map() {
-            "every ray is traced, at traced's cost (no depth map is built)"
-        } else {
-            "more rays are traced"
-        };
-        (reach > 0.0 && margin > 1e-2 * reach).then(|| {
-            format!(
-                "edge_table: geometry {bound:.1e} m from the camera widens the depth map's rounding \
-                 margins to {margin:.1e} m, against {reach:.1e} m from the light to what it lights: {cost}; \
-                 traced and silhouette do not depend on it"
-            )
-        })
-    }
-}
-
 impl LightShadowing for EdgeTable {
     fn name(&self) -> &'static str {
         Self::NAME
@@ -599,7 +429,7 @@ impl LightShadowing for EdgeTable {
         self.warning = None;
         // The map's peak is known from its size alone, the masks' from a coarse map: both
         // refused before anything large is built.
-        let margins = Margins::of(ctx);
+        let margins = plan::Margins::of(ctx);
         self.margin_warning = margins.warning();
         if margins.defeat_the_map() {
             self.fallback.prepare(ctx)?;
@@ -607,7 +437,7 @@ impl LightShadowing for EdgeTable {
             return Ok(());
         }
         memory::check_map(&self.params, ctx.memory_budget_bytes)?;
-        self.refuse_impossible_masks(ctx)?;
+        plan::refuse_impossible_masks(&self.params, self.samples, ctx)?;
         self.state = Some(match &self.params.reading {
             Reading::Exact => {
                 self.fallback.prepare(ctx)?;
