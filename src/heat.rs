@@ -67,7 +67,7 @@ pub fn seconds_label(s: f64) -> String {
 
 /// A PNG of `values` (row-major, `width` x `height`; None drawn in [`MISS`]) on a log scale,
 /// scaled up to at least [`MIN_WIDTH`], with a legend: the ramp, decade ticks labelled in
-/// seconds, `title` and the miss colour. Labels need a font ([`crate::bench::plot::have_font`]);
+/// seconds, `title` and the miss colour. Labels need a font ([`crate::fonts::have_font`]);
 /// without one the ramp and ticks are drawn alone.
 pub fn log_heat_map_png(
     width: u32,
@@ -117,7 +117,7 @@ fn draw_legend(
         let [r, g, b] = ramp((x - x0) as f64 / (x1 - x0 - 1).max(1) as f64);
         root.draw(&PathElement::new(vec![(x, y0), (x, y1)], RGBColor(r, g, b))).map_err(err)?;
     }
-    let font = crate::bench::plot::have_font();
+    let font = crate::fonts::have_font();
     let text = |s: &str, pos: (i32, i32)| {
         Text::new(s.to_string(), pos, ("sans-serif", 12).into_font().color(&BLACK))
     };

@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod config;
 pub mod flags;
+pub mod fonts;
 pub mod heat;
 pub mod key_reference;
 pub mod memory;

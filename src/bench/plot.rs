@@ -6,10 +6,10 @@
 //! a few usual system paths is registered at run time. Without one the plots are drawn
 //! without text, and the HTML report's captions name the axes.
 
+use crate::fonts::have_font;
 use crate::methods::{Registered, find_in};
 use plotters::prelude::*;
 use std::path::Path;
-use std::sync::OnceLock;
 
 /// One method family's points: (shadow cost in s, visibility RMSE).
 pub struct Series<'a> {
@@ -32,36 +32,6 @@ pub fn style(methods: &[Registered], family: &str) -> Style {
     find_in(methods, family).map_or(Style { colour: [148, 103, 189], line: false }, |m| Style {
         colour: m.colour,
         line: m.plot_line,
-    })
-}
-
-const FONT_CANDIDATES: &[&str] = &[
-    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/TTF/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-    "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
-    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-    "/usr/share/fonts/liberation-sans/LiberationSans-Regular.ttf",
-    "/Library/Fonts/Arial.ttf",
-    "/System/Library/Fonts/Supplemental/Arial.ttf",
-    "C:\\Windows\\Fonts\\arial.ttf",
-];
-
-/// Whether a font is registered (looked for once per process).
-pub fn have_font() -> bool {
-    static FONT: OnceLock<bool> = OnceLock::new();
-    *FONT.get_or_init(|| {
-        let env = std::env::var("PENUMBRA_FONT").ok();
-        for path in env.iter().map(String::as_str).chain(FONT_CANDIDATES.iter().copied()) {
-            if let Ok(bytes) = std::fs::read(path) {
-                // Registered fonts live for the whole process.
-                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-                if plotters::style::register_font("sans-serif", FontStyle::Normal, bytes).is_ok() {
-                    return true;
-                }
-            }
-        }
-        false
     })
 }
 
