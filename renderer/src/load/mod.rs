@@ -1,4 +1,4 @@
-//! From files to a [`Scene`](crate::Scene): the scene file typed ([`config`]), glTF into
+//! From files to a [`Scene`](crate::geometry::scene::Scene): the scene file typed ([`config`]), glTF into
 //! world-space triangles ([`gltf_load`]), and the scene built in render space
 //! ([`scene_load`]).
 

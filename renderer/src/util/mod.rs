@@ -1,4 +1,4 @@
-//! Helpers every floor uses: the one error type, all-or-nothing output files, per-pixel
+//! Helpers every floor uses: the one error type, typed TOML with key paths, per-pixel
 //! cost counters and deterministic random numbers.
 
 pub mod error;
