@@ -5,6 +5,7 @@ pub mod bench;
 pub mod config;
 pub mod flags;
 pub mod fonts;
+pub mod frame_files;
 pub mod heat;
 pub mod key_reference;
 pub mod memory;
@@ -15,6 +16,7 @@ pub mod profile;
 pub mod progress;
 pub mod report;
 pub mod scene_files;
+pub mod threads;
 pub mod tile;
 
 use crate::config::ShadowsConfig;
@@ -30,8 +32,10 @@ use std::time::Instant;
 
 /// The default scene, embedded so that `penumbra` with no arguments works anywhere.
 pub const DEFAULT_SCENE: &str = include_str!("../scenes/default.toml");
-/// Largest width x height x spp accepted.
-pub const MAX_PRIMARY_SAMPLES: u64 = 1 << 26;
+pub use frame_files::MAX_PRIMARY_SAMPLES;
+use frame_files::{Pixels, missed_pixels, stage_images, stage_profile};
+pub use threads::thread_pool;
+use threads::thread_pool_traced;
 
 /// The name the default scene's errors and outputs go by.
 pub const DEFAULT_SCENE_NAME: &str = "scenes/default.toml";
@@ -172,7 +176,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     let phases = Phases { loaded, write: t_write.elapsed(), total: t_total.elapsed() };
     let mut report = build_report(&plan, args.seed, threads, &scene, &frame, &outputs, phases);
     if let Some((spec, fingerprint)) = &plan.tile {
-        report.tile = Some(tile::tile_info(*spec, fingerprint, args, &scene, &frame));
+        report.tile = Some(tile::tile_info(*spec, fingerprint, (args.aov, args.profile), &scene, &frame));
         // The frame's own warnings wait for the merge: a tile of sky is not a black image.
         report.warnings = scene.warnings.iter().chain(&frame.method_warnings).cloned().collect();
     }
@@ -347,92 +351,6 @@ fn render_frame(
         .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))
 }
 
-/// A frame's pixels as the outputs write them: a whole render's, or a merge's tiles'.
-pub(crate) struct Pixels<'a> {
-    pub width: u32,
-    pub height: u32,
-    pub radiance: &'a [glam::Vec3],
-    /// Per light, as [`renderer::Frame::visibility`].
-    pub visibility: &'a [Vec<f32>],
-}
-
-/// Creates the folder `png` goes in.
-pub(crate) fn create_output_folder(png: &Path) -> Result<(), CliError> {
-    if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .map_err(|e| SceneError::new(dir, "--out", format!("cannot create the folder: {e}")))?;
-    }
-    Ok(())
-}
-
-/// Stages the PNG, the EXR beside it and, with `aov`, each light's visibility EXR and PNG,
-/// after creating the output folder. Returns their paths in that order.
-pub(crate) fn stage_images(
-    png: &Path,
-    px: &Pixels,
-    aov: bool,
-    staged: &mut StagedFiles,
-) -> Result<Vec<PathBuf>, CliError> {
-    let (width, height) = (px.width, px.height);
-    // A NaN or an infinity never reaches a file: refuse before anything is staged.
-    let exr = png.with_extension("exr");
-    crate::output::check_finite(px.radiance).map_err(|e| {
-        SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
-    })?;
-    create_output_folder(png)?;
-    let io = |e: String| SceneError::new(png, "--out", e);
-    let mut outputs = vec![png.to_path_buf()];
-    staged.png(png, width, height, px.radiance).map_err(io)?;
-    staged.exr(&exr, width, height, px.radiance).map_err(io)?;
-    outputs.push(exr);
-    if aov {
-        for (k, vis) in px.visibility.iter().enumerate() {
-            let path = png.with_extension(format!("visibility.{k}.exr"));
-            let rgb: Vec<glam::Vec3> = vis.iter().map(|&v| glam::Vec3::splat(v)).collect();
-            staged.exr(&path, width, height, &rgb).map_err(io)?;
-            outputs.push(path);
-            // The same as grey for any image viewer: visibility 0..1 as linear grey (so the
-            // PNG's sRGB encoding shows it as a viewer shows radiance), misses in blue.
-            let path = png.with_extension(format!("visibility.{k}.png"));
-            let grey: Vec<glam::Vec3> = vis
-                .iter()
-                .map(|&v| if v < 0.0 { glam::Vec3::new(0.0, 0.05, 0.35) } else { glam::Vec3::splat(v) })
-                .collect();
-            staged.png(&path, width, height, &grey).map_err(io)?;
-            outputs.push(path);
-        }
-    }
-    Ok(outputs)
-}
-
-/// The pixels no primary ray hits (read off the first light's visibility; none without a
-/// light), which the cost heat map marks.
-pub(crate) fn missed_pixels(frame: &Frame, pixels: usize) -> Vec<bool> {
-    match frame.visibility.first() {
-        Some(v) => v.iter().map(|&v| v < 0.0).collect(),
-        None => vec![false; pixels],
-    }
-}
-
-/// Stages `--profile`'s images beside `png`: the cost EXR and its heat map (`missed`: the
-/// pixels it marks). Returns their paths.
-pub(crate) fn stage_profile(
-    png: &Path,
-    [width, height]: [u32; 2],
-    costs: &[renderer::util::profile::PixelCost],
-    missed: &[bool],
-    staged: &mut StagedFiles,
-) -> Result<Vec<PathBuf>, CliError> {
-    let (exr, heat) = (png.with_extension("cost.exr"), png.with_extension("cost.png"));
-    let exr_bytes =
-        profile::cost_exr(width, height, costs, None).map_err(|e| SceneError::new(&exr, "", e))?;
-    staged.bytes(&exr, &exr_bytes).map_err(|e| SceneError::new(&exr, "--out", e))?;
-    let png_bytes =
-        profile::cost_png(width, height, costs, missed).map_err(|e| SceneError::new(&heat, "", e))?;
-    staged.bytes(&heat, &png_bytes).map_err(|e| SceneError::new(&heat, "--out", e))?;
-    Ok(vec![exr, heat])
-}
-
 /// The run's report; `outputs` lists every file written (the report last), `t_total` is
 /// when the run began.
 fn build_report(
@@ -496,37 +414,4 @@ pub fn exit_cleanly_on_signals() {
             std::process::exit(128 + signal);
         }
     });
-}
-
-/// The worker pool for `--threads` (default: all cores), and its size; errors name `file`.
-pub fn thread_pool(
-    threads: Option<u32>,
-    file: &std::path::Path,
-) -> Result<(usize, rayon::ThreadPool), CliError> {
-    thread_pool_traced(threads, file, None)
-}
-
-/// [`thread_pool`] whose threads record their spans into `trace`.
-fn thread_pool_traced(
-    threads: Option<u32>,
-    file: &std::path::Path,
-    trace: Option<&profile::Trace>,
-) -> Result<(usize, rayon::ThreadPool), CliError> {
-    let threads = match threads {
-        Some(n) => n as usize,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
-    let dispatch = trace.map(|t| t.dispatch.clone());
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .thread_name(|i| format!("worker {i}"))
-        .start_handler(move |_| {
-            if let Some(d) = &dispatch {
-                // For the thread's whole life: the pool is the run's.
-                std::mem::forget(tracing::dispatcher::set_default(d));
-            }
-        })
-        .build()
-        .map_err(|e| SceneError::new(file, "--threads", e.to_string()))?;
-    Ok((threads, pool))
 }

@@ -3,11 +3,12 @@
 //! aside). Every tile is read and checked before anything is staged, and the outputs are
 //! committed together: a bad set of tiles writes nothing.
 
+use crate::frame_files::{MAX_PRIMARY_SAMPLES, Pixels, stage_images, stage_profile};
 use crate::output::StagedFiles;
 use crate::report::{ProfileTotals, RunReport, TileInfo, TileRun, Timings};
 use crate::tile::PixelDigest;
-use crate::{CliError, Pixels, stage_images, stage_profile};
 use glam::Vec3;
+use renderer::SceneError as CliError;
 use renderer::util::profile::{PixelCost, Work};
 use renderer::{FrameTally, SceneError};
 use std::collections::BTreeMap;
@@ -117,7 +118,7 @@ fn check_tiles(tiles: &[Tile]) -> Result<(), CliError> {
             return Err(SceneError::new(&first.json, key, format!("must be in 1..={max}, got {v}")));
         }
     }
-    let (r, most) = (&first.report, crate::MAX_PRIMARY_SAMPLES);
+    let (r, most) = (&first.report, MAX_PRIMARY_SAMPLES);
     if r.width as u64 * r.height as u64 * r.spp as u64 > most {
         return Err(SceneError::new(
             &first.json,

@@ -147,7 +147,7 @@ pub fn frame_digest(frame: &Frame, aov: bool) -> String {
         d.counts(costs.iter().map(|c| clamp(c.work.rays)));
         d.counts(costs.iter().map(|c| clamp(c.work.shafts)));
         d.counts(costs.iter().map(|c| clamp(c.work.lookups)));
-        d.counts(crate::missed_pixels(frame, costs.len()).into_iter().map(u32::from));
+        d.counts(crate::frame_files::missed_pixels(frame, costs.len()).into_iter().map(u32::from));
     }
     d.hex()
 }
@@ -165,7 +165,7 @@ pub fn stage_tile_images(
     crate::output::check_finite(&frame.radiance).map_err(|e| {
         SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
     })?;
-    crate::create_output_folder(png)?;
+    crate::frame_files::create_output_folder(png)?;
     let io = |e: String| SceneError::new(png, "--out", e);
     staged.exr(&exr, width, rows, &frame.radiance).map_err(io)?;
     let mut outputs = vec![exr];
@@ -179,7 +179,7 @@ pub fn stage_tile_images(
     }
     if let Some(costs) = &frame.costs {
         let path = png.with_extension("cost.exr");
-        let missed = crate::missed_pixels(frame, costs.len());
+        let missed = crate::frame_files::missed_pixels(frame, costs.len());
         let bytes = crate::profile::cost_exr(width, rows, costs, Some(&missed))
             .map_err(|e| SceneError::new(&path, "", e))?;
         staged.bytes(&path, &bytes).map_err(io)?;
@@ -192,7 +192,7 @@ pub fn stage_tile_images(
 pub fn tile_info(
     spec: TileSpec,
     fingerprint: &str,
-    args: &crate::RenderArgs,
+    (aov, profile): (bool, bool),
     scene: &renderer::Scene,
     frame: &Frame,
 ) -> crate::report::TileInfo {
@@ -201,9 +201,9 @@ pub fn tile_info(
         count: spec.count,
         rows: [frame.rows.start, frame.rows.end],
         fingerprint: fingerprint.to_string(),
-        pixels: frame_digest(frame, args.aov),
-        aov: args.aov,
-        profile: args.profile,
+        pixels: frame_digest(frame, aov),
+        aov,
+        profile,
         prepare_counters: frame.prepare_counters.clone(),
         tally: frame.tally.clone(),
         scene_warnings: scene.warnings.clone(),

@@ -114,7 +114,7 @@ pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
 /// [`run_bench`] with the methods of `methods`: their sweeps, their plot colours.
 pub fn run_bench_in(args: &BenchArgs, methods: &[Registered]) -> Result<String, SceneError> {
     let out = args.out_dir();
-    let (threads, pool) = crate::thread_pool(args.threads, &out)?;
+    let (threads, pool) = crate::threads::thread_pool(args.threads, &out)?;
     let plan = scene::Plan {
         args,
         out: &out,

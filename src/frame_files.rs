@@ -1,0 +1,96 @@
+//! The frame's files, staged all or nothing: the PNG, the EXR, each light's visibility and
+//! `--profile`'s cost images. What `render`, `render --tile` and `merge` write alike.
+
+use crate::output::StagedFiles;
+use crate::profile;
+use renderer::{Frame, SceneError};
+use std::path::{Path, PathBuf};
+
+/// Largest width x height x spp accepted.
+pub const MAX_PRIMARY_SAMPLES: u64 = 1 << 26;
+
+/// A frame's pixels as the outputs write them: a whole render's, or a merge's tiles'.
+pub struct Pixels<'a> {
+    pub width: u32,
+    pub height: u32,
+    pub radiance: &'a [glam::Vec3],
+    /// Per light, as [`renderer::Frame::visibility`].
+    pub visibility: &'a [Vec<f32>],
+}
+
+/// Creates the folder `png` goes in.
+pub fn create_output_folder(png: &Path) -> Result<(), SceneError> {
+    if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| SceneError::new(dir, "--out", format!("cannot create the folder: {e}")))?;
+    }
+    Ok(())
+}
+
+/// Stages the PNG, the EXR beside it and, with `aov`, each light's visibility EXR and PNG,
+/// after creating the output folder. Returns their paths in that order.
+pub fn stage_images(
+    png: &Path,
+    px: &Pixels,
+    aov: bool,
+    staged: &mut StagedFiles,
+) -> Result<Vec<PathBuf>, SceneError> {
+    let (width, height) = (px.width, px.height);
+    // A NaN or an infinity never reaches a file: refuse before anything is staged.
+    let exr = png.with_extension("exr");
+    crate::output::check_finite(px.radiance).map_err(|e| {
+        SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
+    })?;
+    create_output_folder(png)?;
+    let io = |e: String| SceneError::new(png, "--out", e);
+    let mut outputs = vec![png.to_path_buf()];
+    staged.png(png, width, height, px.radiance).map_err(io)?;
+    staged.exr(&exr, width, height, px.radiance).map_err(io)?;
+    outputs.push(exr);
+    if aov {
+        for (k, vis) in px.visibility.iter().enumerate() {
+            let path = png.with_extension(format!("visibility.{k}.exr"));
+            let rgb: Vec<glam::Vec3> = vis.iter().map(|&v| glam::Vec3::splat(v)).collect();
+            staged.exr(&path, width, height, &rgb).map_err(io)?;
+            outputs.push(path);
+            // The same as grey for any image viewer: visibility 0..1 as linear grey (so the
+            // PNG's sRGB encoding shows it as a viewer shows radiance), misses in blue.
+            let path = png.with_extension(format!("visibility.{k}.png"));
+            let grey: Vec<glam::Vec3> = vis
+                .iter()
+                .map(|&v| if v < 0.0 { glam::Vec3::new(0.0, 0.05, 0.35) } else { glam::Vec3::splat(v) })
+                .collect();
+            staged.png(&path, width, height, &grey).map_err(io)?;
+            outputs.push(path);
+        }
+    }
+    Ok(outputs)
+}
+
+/// The pixels no primary ray hits (read off the first light's visibility; none without a
+/// light), which the cost heat map marks.
+pub fn missed_pixels(frame: &Frame, pixels: usize) -> Vec<bool> {
+    match frame.visibility.first() {
+        Some(v) => v.iter().map(|&v| v < 0.0).collect(),
+        None => vec![false; pixels],
+    }
+}
+
+/// Stages `--profile`'s images beside `png`: the cost EXR and its heat map (`missed`: the
+/// pixels it marks). Returns their paths.
+pub fn stage_profile(
+    png: &Path,
+    [width, height]: [u32; 2],
+    costs: &[renderer::util::profile::PixelCost],
+    missed: &[bool],
+    staged: &mut StagedFiles,
+) -> Result<Vec<PathBuf>, SceneError> {
+    let (exr, heat) = (png.with_extension("cost.exr"), png.with_extension("cost.png"));
+    let exr_bytes =
+        profile::cost_exr(width, height, costs, None).map_err(|e| SceneError::new(&exr, "", e))?;
+    staged.bytes(&exr, &exr_bytes).map_err(|e| SceneError::new(&exr, "--out", e))?;
+    let png_bytes =
+        profile::cost_png(width, height, costs, missed).map_err(|e| SceneError::new(&heat, "", e))?;
+    staged.bytes(&heat, &png_bytes).map_err(|e| SceneError::new(&heat, "--out", e))?;
+    Ok(vec![exr, heat])
+}
