@@ -11,11 +11,11 @@
 
 use glam::{Vec2, Vec3};
 use renderer::util::sampling::Rng;
-use shadow_plugin::bits::{MAX_WORDS, count, fill_first, words};
+use shadow_plugin::depth_map::bits::{MAX_WORDS, count, fill_first, words};
+use shadow_plugin::depth_map::march::{floor_height, for_each_crossing, stop_height};
 use shadow_plugin::depth_map::{DepthMap, LightFrame, MapPoint};
 use shadow_plugin::depth_march::march_bits;
 use shadow_plugin::edge_table::{Heightfield, Mask, MaskQuery};
-use shadow_plugin::march::{floor_height, for_each_crossing, stop_height};
 
 const READINGS: [Heightfield; 3] = [Heightfield::Solid, Heightfield::Shells, Heightfield::Plates];
 

@@ -8,14 +8,19 @@
 //! ([`DepthMap::build`]), `fit.rs` fits its frustum to the receivers, `pyramid.rs` is the
 //! min-depth pyramid behind region shrinking and block culling.
 
+pub mod bits;
 mod bounds;
 mod build;
+pub mod fallback;
 mod fit;
+pub mod heightfield;
+pub mod march;
 mod pyramid;
+pub mod samples;
 #[cfg(test)]
 mod tests;
 
-use crate::march::{floor_height, region_reach};
+use crate::depth_map::march::{floor_height, region_reach};
 pub use bounds::DepthBounds;
 use glam::{Vec2, Vec3};
 use pyramid::MinPyramid;

@@ -13,12 +13,12 @@
 
 mod entry;
 
-use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
+use crate::depth_map::bits::{self, MAX_SAMPLES, MAX_WORDS};
+use crate::depth_map::fallback::{Located, MapFallback, OnMap};
+use crate::depth_map::heightfield::{Heightfield, inapplicable_to_reading};
+use crate::depth_map::march::{ray_blocked, stop_height};
+use crate::depth_map::samples;
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
-use crate::fallback::{Located, MapFallback, OnMap};
-use crate::heightfield::{Heightfield, inapplicable_to_reading};
-use crate::march::{ray_blocked, stop_height};
-use crate::samples;
 use glam::Vec2;
 use renderer::util::sampling::Rng;
 use renderer::{

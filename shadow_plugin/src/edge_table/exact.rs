@@ -21,9 +21,9 @@
 //! shaft is clear is answered 1 first, as `traced` does; a point off the map traces every ray.
 
 use super::mask::{ExactQuery, Mask};
-use crate::bits::{self, MAX_WORDS};
+use crate::depth_map::bits::{self, MAX_WORDS};
+use crate::depth_map::march::region_reach;
 use crate::depth_map::{DepthBounds, DepthMap, MapPoint};
-use crate::march::region_reach;
 use glam::{Vec2, Vec3};
 use renderer::geometry::ray_origin::{gamma, offset_origin, shadow_ray_from};
 use renderer::geometry::shaft::{Cover, covers_light};
@@ -297,7 +297,7 @@ impl ExactMap {
         let words = bits::words(n);
         let mut above = [0u64; MAX_WORDS];
         let above = &mut above[..words];
-        crate::samples::above_horizon(frame, &m.mask.samples, Vec2::ONE, &q.point, above);
+        crate::depth_map::samples::above_horizon(frame, &m.mask.samples, Vec2::ONE, &q.point, above);
         let n_above = bits::count(above);
         if (n_above as f32) < HORIZON_SHARE * n as f32 {
             return None;

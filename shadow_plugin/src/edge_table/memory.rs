@@ -5,8 +5,8 @@
 
 use super::params::{EdgeTableParams, Reading};
 use super::{EdgeTable, Mask, grid};
-use crate::heightfield::Heightfield;
-use crate::samples;
+use crate::depth_map::heightfield::Heightfield;
+use crate::depth_map::samples;
 use glam::Vec2;
 use renderer::util::sampling::{Rng, stream_seed};
 use renderer::{PrepareContext, ShadowError};

@@ -71,7 +71,7 @@ pub mod memory;
 mod params;
 mod plan;
 
-pub use crate::heightfield::Heightfield;
+pub use crate::depth_map::heightfield::Heightfield;
 pub use exact::{ExactMap, ExactMask, ExactStats};
 pub use mask::{Mask, MaskQuery, QueryStats};
 pub use params::{
@@ -79,11 +79,11 @@ pub use params::{
     PublishedParams, Reading,
 };
 
-use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
+use crate::depth_map::bits::{self, MAX_SAMPLES, MAX_WORDS};
+use crate::depth_map::fallback::{Located, MapFallback, OnMap};
+use crate::depth_map::march::stop_height;
+use crate::depth_map::samples;
 use crate::depth_map::{DepthBounds, DepthMap};
-use crate::fallback::{Located, MapFallback, OnMap};
-use crate::march::stop_height;
-use crate::samples;
 use glam::Vec2;
 use grid::{Layout, MaskGrid};
 use rayon::prelude::*;

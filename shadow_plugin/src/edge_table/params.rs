@@ -2,9 +2,9 @@
 //! table of them (the keys are listed in the `edge_table` module doc).
 
 use super::EdgeTable;
-use crate::bits::MAX_SAMPLES;
+use crate::depth_map::bits::MAX_SAMPLES;
+use crate::depth_map::heightfield::{Heightfield, inapplicable_to_reading};
 use crate::depth_map::{DepthMapParams, MapSwitches};
-use crate::heightfield::{Heightfield, inapplicable_to_reading};
 use renderer::interface::method::reads;
 use renderer::{KeyError, LightShadowing, MethodParams, ShadowMethod};
 use serde::{Deserialize, Serialize};

@@ -6,8 +6,8 @@
 use super::exact::{self, ExactMap};
 use super::grid::{self, Layout};
 use super::{Blend, EdgeTableParams, Heightfield, MASK_HEIGHT_QUANTILE, Reading, memory};
+use crate::depth_map::march::stop_height;
 use crate::depth_map::{DepthBounds, DepthMap};
-use crate::march::stop_height;
 use rayon::prelude::*;
 use renderer::{PrepareContext, ShadingPoint, ShadowError};
 

@@ -5,7 +5,7 @@
 //! Per shading point, three steps, all in the map's perspective image (image-plane units:
 //! x/z, y/z in the light's frame; divide by the map's pitch for pixels). A light sample s
 //! (its offset in the light's plane) seen from a point P crosses depth z at image offset
-//! s (1/z - 1/Pz) from P's image point (see [`crate::march`]). So every region PCSS reads
+//! s (1/z - 1/Pz) from P's image point (see [`crate::depth_map::march`]). So every region PCSS reads
 //! is the set of those offsets for s over the light, at one depth:
 //!
 //! 1. **Blocker search.** `blocker_samples` stratified light samples, each read (nearest
@@ -75,10 +75,10 @@
 //! blocker_samples = 32
 //! ```
 
-use crate::bits::{self, MAX_SAMPLES, MAX_WORDS};
+use crate::depth_map::bits::{self, MAX_SAMPLES, MAX_WORDS};
+use crate::depth_map::fallback::{Located, MapFallback, OnMap};
+use crate::depth_map::samples;
 use crate::depth_map::{DepthMap, DepthMapParams, LightFrame, MapPoint, MapSwitches};
-use crate::fallback::{Located, MapFallback, OnMap};
-use crate::samples;
 use glam::{Vec2, Vec3};
 use renderer::methods::irradiance_share::IrradianceShare;
 use renderer::util::sampling::Rng;

@@ -4,9 +4,9 @@
 //! side where only a side will do), and group the pixels into blocks.
 
 use super::{BLOCK, Block, Cell, Mask, NONE, Side, Table};
-use crate::bits::{self, MAX_WORDS};
-use crate::heightfield::Heightfield;
-use crate::march::for_each_crossing;
+use crate::depth_map::bits::{self, MAX_WORDS};
+use crate::depth_map::heightfield::Heightfield;
+use crate::depth_map::march::for_each_crossing;
 use glam::Vec2;
 use std::collections::HashMap;
 

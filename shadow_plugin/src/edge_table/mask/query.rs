@@ -10,10 +10,10 @@
 //! - `walls` (`shells`): where it passes from above one floor to under a higher one.
 
 use super::{Cell, Mask, NONE, QueryStats, Table};
-use crate::bits::MAX_WORDS;
 use crate::depth_map::DepthMap;
-use crate::heightfield::Heightfield;
-use crate::march::floor_height;
+use crate::depth_map::bits::MAX_WORDS;
+use crate::depth_map::heightfield::Heightfield;
+use crate::depth_map::march::floor_height;
 
 /// Where one point reads a mask, and how high: the published reading's counterpart of
 /// [`super::ExactQuery`].

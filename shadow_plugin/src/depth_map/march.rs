@@ -12,7 +12,7 @@
 //! "at or below the floor" (h <= H, ties block) is inside the solid the map implies. See
 //! [`Heightfield`] for the readings and [`ray_blocked`] for the per-ray rule.
 
-use crate::heightfield::Heightfield;
+use crate::depth_map::heightfield::Heightfield;
 use glam::Vec2;
 
 /// Calls `visit(cell, axis, h)` for each pixel the ray enters (axis 0: through a vertical

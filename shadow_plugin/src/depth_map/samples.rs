@@ -1,7 +1,7 @@
 //! Light samples in the light's frame (z = 0) and the horizon test against them.
 
-use crate::bits;
 use crate::depth_map::LightFrame;
+use crate::depth_map::bits;
 use glam::Vec2;
 use renderer::ShadingPoint;
 use renderer::util::sampling::{Rng, strata};
