@@ -33,6 +33,7 @@ pub const DEPTH_RANGE_TEXT: &str = "must be in 2..=64 (2 = direct light only, 5 
 pub fn depth_message(got: &dyn std::fmt::Display) -> String {
     format!("{DEPTH_RANGE_TEXT}, got {got}")
 }
+
 /// The first vertex (1 = the primary hit) after which Russian roulette may end a path.
 pub const RR_START: u32 = 3;
 

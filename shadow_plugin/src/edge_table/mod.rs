@@ -79,15 +79,15 @@ pub use params::{
     PublishedParams, Reading,
 };
 
+use crate::depth_map::DepthMap;
 use crate::depth_map::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::fallback::{Located, MapFallback, OnMap};
 use crate::depth_map::march::stop_height;
 use crate::depth_map::samples;
-use crate::depth_map::{DepthBounds, DepthMap};
 use glam::Vec2;
 use grid::{Layout, MaskGrid};
 use rayon::prelude::*;
-use renderer::{LightShadowing, PrepareContext, Scene, ShadingPoint, ShadowError, ShadowQuery};
+use renderer::{LightShadowing, PrepareContext, Scene, ShadowError, ShadowQuery};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// The plugin: one depth map and a grid of masks per light and frame.
@@ -250,15 +250,8 @@ impl EdgeTable {
     /// masks march (what the receivers' regions need, up to its [`MASK_HEIGHT_QUANTILE`]), the
     /// masks at their cells' lower corners, every one built (no mirroring).
     fn prepare_exact(&self, ctx: &PrepareContext) -> Result<Prepared, ShadowError> {
-        // The fit, the depth levels and the march height are estimates from the receivers
-        // (exactness does not rest on them): every k-th of at most QUANTILE_POINTS suffices,
-        // where all of them cost a shaft query each in the fit.
-        let stride = ctx.visible.len().div_ceil(exact::QUANTILE_POINTS).max(1);
-        let visible: Vec<ShadingPoint> = ctx.visible.iter().step_by(stride).copied().collect();
-        let (bounds, near) =
-            DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &self.params.depth_map());
-        let map =
-            Box::new(ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() });
+        let (map, visible) = plan::exact_map(ctx, &self.params);
+        let map = Box::new(map);
         let (levels, per_level) = plan::exact_levels(&map, &visible, self.params.grid[2]);
         let layout = Layout::new(self.params.grid, false);
         // Classification reads no walls: the masks are built without the `shells` reading's

@@ -34,6 +34,18 @@ pub(super) fn mask_height_cap(map: &DepthMap, visible: &[ShadingPoint]) -> f32 {
     }
 }
 
+/// The exact reading's conservative depth bounds for `params`' map, and the receivers they
+/// were fitted to. The fit, the depth levels and the march height are estimates from the
+/// receivers (exactness does not rest on them): every k-th of at most `QUANTILE_POINTS`
+/// suffices, where all of them cost a shaft query each in the fit.
+pub(super) fn exact_map(ctx: &PrepareContext, params: &EdgeTableParams) -> (ExactMap, Vec<ShadingPoint>) {
+    let stride = ctx.visible.len().div_ceil(exact::QUANTILE_POINTS).max(1);
+    let visible: Vec<ShadingPoint> = ctx.visible.iter().step_by(stride).copied().collect();
+    let (bounds, near) = DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &params.depth_map());
+    let map = ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() };
+    (map, visible)
+}
+
 /// The published reading's depth levels, and per level its depth and how high its masks
 /// march: far enough for the deepest point it serves, and no further than the receivers need.
 pub(super) fn published_levels(
@@ -93,11 +105,7 @@ pub(super) fn refuse_impossible_masks(
     let gz = params.grid[2];
     let (map, per_level, heightfield, layout) = match &params.reading {
         Reading::Exact => {
-            let stride = ctx.visible.len().div_ceil(exact::QUANTILE_POINTS).max(1);
-            let visible: Vec<ShadingPoint> = ctx.visible.iter().step_by(stride).copied().collect();
-            let (bounds, near) =
-                DepthBounds::build_for_light(ctx.scene, ctx.light, &visible, &coarse.depth_map());
-            let map = ExactMap { bounds, near, light: *ctx.light, scene_bound: ctx.scene.coordinate_bound() };
+            let (map, visible) = exact_map(ctx, &coarse);
             let (_, per_level) = exact_levels(&map, &visible, gz);
             (map.near, per_level, Heightfield::Plates, Layout::new(params.grid, false))
         }
