@@ -183,9 +183,8 @@ fn main() {
         let lit = &none.visibility[0];
         // The truth: every ray traced. `traced` as it ships culls shafts: the same bits
         // (its error row must read 0), at its own cost; "vs traced" is against that one.
-        let truth = run(&scene, &|| Box::new(Traced::new(TracedParams::plain(samples))), &settings);
-        let culled =
-            run(&scene, &|| Box::new(Traced::new(TracedParams { samples, shaft_culling: true })), &settings);
+        let truth = run(&scene, &|| Box::new(Traced::new(TracedParams::PLAIN, samples)), &settings);
+        let culled = run(&scene, &|| Box::new(Traced::new(TracedParams::CULLED, samples)), &settings);
         let cost = |f: &renderer::Frame| f.shadow_prepare + f.render.saturating_sub(base);
         let mut rows = vec![
             Row {

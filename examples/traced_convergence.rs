@@ -65,8 +65,9 @@ fn main() {
         let file = SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));
         let scene = Scene::load(&file, path).unwrap_or_else(|e| panic!("{e}"));
         let lit = run(&scene, &|| Box::new(Unshadowed {}), &settings(0));
-        let traced =
-            |n: u32, seed: u64| run(&scene, &|| Box::new(Traced::new(TracedParams::new(n))), &settings(seed));
+        let traced = |n: u32, seed: u64| {
+            run(&scene, &|| Box::new(Traced::new(TracedParams::CULLED, n)), &settings(seed))
+        };
         let reference = traced(REFERENCE, 1);
         let mut rmse = Vec::new();
         let mut max_err = 0.0f64;

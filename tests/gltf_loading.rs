@@ -528,7 +528,7 @@ fn a_nearest_sampler_is_honoured_by_the_alpha_test() {
 /// Traced visibility (64 samples) of the scene's first light at floor points (world, y = 0,
 /// normal +Y).
 fn floor_visibility(scene: &Scene, points: &[DVec3]) -> Vec<f32> {
-    let mut traced = Traced::new(TracedParams::plain(64));
+    let mut traced = Traced::new(TracedParams::PLAIN, 64);
     traced
         .prepare(&PrepareContext {
             scene,

@@ -80,7 +80,7 @@ fn traced(scene: &Scene, samples: u32) -> Vec<Box<dyn LightShadowing>> {
     scene
         .lights
         .iter()
-        .map(|_| Box::new(Traced::new(TracedParams::new(samples))) as Box<dyn LightShadowing>)
+        .map(|_| Box::new(Traced::new(TracedParams::CULLED, samples)) as Box<dyn LightShadowing>)
         .collect()
 }
 

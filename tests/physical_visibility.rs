@@ -53,7 +53,7 @@ fn scene(h: f64) -> Scene {
 }
 
 fn prepared(scene: &Scene) -> Traced {
-    let mut t = Traced::new(TracedParams::new(SAMPLES));
+    let mut t = Traced::new(TracedParams::CULLED, SAMPLES);
     let ctx = PrepareContext {
         scene,
         light: &scene.lights[0],

@@ -24,7 +24,7 @@ fn far_quad(x: f64) -> String {
 
 /// The frame `traced` renders of `scene` at 160 x 120, 64 samples, seed 7, direct light.
 fn traced_frame(scene: &Scene) -> Frame {
-    frame_with(scene, Box::new(Traced::new(TracedParams { samples: 64, ..TracedParams::default() })))
+    frame_with(scene, Box::new(Traced::new(TracedParams::CULLED, 64)))
 }
 
 /// The frame `method` renders of `scene` at 160 x 120, seed 7, direct light.

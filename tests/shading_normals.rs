@@ -57,7 +57,7 @@ fn scene(camera: Camera) -> Scene {
 }
 
 fn frame(scene: &Scene, width: u32, spp: u32, max_depth: u32) -> Frame {
-    let mut methods: Vec<Box<dyn LightShadowing>> = vec![Box::new(Traced::new(TracedParams::new(16)))];
+    let mut methods: Vec<Box<dyn LightShadowing>> = vec![Box::new(Traced::new(TracedParams::CULLED, 16))];
     let settings = RenderSettings {
         width,
         height: width,

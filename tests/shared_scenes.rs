@@ -113,7 +113,7 @@ fn shaft_culled_traced_gives_the_plain_traced_bits_on_every_shared_scene() {
             let mut methods: Vec<Box<dyn LightShadowing>> = scene
                 .lights
                 .iter()
-                .map(|_| Box::new(Traced::new(TracedParams { samples: 1024, shaft_culling })) as _)
+                .map(|_| Box::new(Traced::new(TracedParams { shaft_culling }, 1024)) as _)
                 .collect();
             render(&scene, &mut methods, &settings, &|_| {}).unwrap()
         };

@@ -11,7 +11,7 @@ use common::soups;
 use renderer::{
     LightShadowing, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery, Traced, TracedParams,
 };
-use shadow_plugin::{Silhouette, SilhouetteParams};
+use shadow_plugin::Silhouette;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -80,8 +80,8 @@ impl ShadowMethod for CheckedMethod {
     }
     fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
         Box::new(Checked {
-            inner: Silhouette::new(SilhouetteParams::new(samples)),
-            truth: Traced::new(TracedParams::new(samples)),
+            inner: Silhouette::new(samples),
+            truth: Traced::new(TracedParams::CULLED, samples),
             settled: AtomicU64::new(0),
             traced: AtomicU64::new(0),
             wrong: AtomicU64::new(0),

@@ -84,11 +84,11 @@ impl BenchEntry for TracedParams {
             .iter()
             .map(|&n| SweepSetting {
                 reference: true,
-                ..SweepSetting::new(format!("traced N={n}"), TracedParams::new(n), n)
+                ..SweepSetting::new(format!("traced N={n}"), TracedParams::CULLED, n)
             })
             .collect();
         let n = top_samples(quick);
-        out.push(SweepSetting::new(format!("{PLAIN_LABEL} N={n}"), TracedParams::plain(n), n));
+        out.push(SweepSetting::new(format!("{PLAIN_LABEL} N={n}"), TracedParams::PLAIN, n));
         out
     }
 }

@@ -55,7 +55,7 @@ mod tests {
             "{:?}",
             sweep(false, METHODS).iter().find(|x| x.label.starts_with(PLAIN_LABEL)).unwrap().method
         );
-        assert_eq!(plain, format!("{:?}", TracedParams::plain(1024)));
+        assert_eq!(plain, format!("{:?}", TracedParams::PLAIN));
         // The equal-error speedup's references: traced as it ships, the plain one aside.
         let references: Vec<bool> = sweep(false, METHODS)
             .iter()

@@ -168,7 +168,7 @@ pub fn truth(
         (RenderSettings { seed: settings.seed ^ TRUTH_SEED_SALT, ..*settings }, 0)
     };
     let mut methods: Vec<Box<dyn renderer::LightShadowing>> = (0..lights)
-        .map(|_| Box::new(Traced::new(TracedParams::plain(samples)).with_seed_salt(salt)) as _)
+        .map(|_| Box::new(Traced::new(TracedParams::PLAIN, samples).with_seed_salt(salt)) as _)
         .collect();
     let frame: Frame = render(scene, &mut methods, &truth_settings, &|_| {})
         .map_err(|e| SceneError::new(scene_path, "bench", e.to_string()))?;

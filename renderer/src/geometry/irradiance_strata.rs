@@ -263,8 +263,7 @@ mod tests {
         let light = RectLight::new(Vec3::new(0.0, 2.0, 0.0), Vec3::X, Vec3::Z, Vec3::ONE);
         let camera = Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
         let s = Scene::build(g, vec![light], camera, DVec3::ZERO, std::time::Duration::ZERO);
-        let prepared = |params| {
-            let mut t = Traced::new(params);
+        let prepared = |mut t: Traced| {
             let ctx = PrepareContext {
                 scene: &s,
                 light: &s.lights[0],
@@ -276,7 +275,10 @@ mod tests {
             t.prepare(&ctx).unwrap();
             t
         };
-        let (plain, culled) = (prepared(TracedParams::plain(1024)), prepared(TracedParams::new(1024)));
+        let (plain, culled) = (
+            prepared(Traced::new(TracedParams::PLAIN, 1024)),
+            prepared(Traced::new(TracedParams::CULLED, 1024)),
+        );
         let (mut followed, mut partial) = (0, 0);
         for k in 0..400u64 {
             let p = Vec3::new(r(-1.2, 1.2), r(0.6, 1.2), r(-1.2, 1.2));

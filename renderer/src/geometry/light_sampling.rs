@@ -429,7 +429,7 @@ mod traced_tests {
         Scene::build(g, vec![light()], camera, DVec3::ZERO, Duration::ZERO)
     }
 
-    fn traced(s: &Scene, params: TracedParams) -> Traced {
+    fn traced(s: &Scene, mut t: Traced) -> Traced {
         let ctx = PrepareContext {
             scene: s,
             light: &s.lights[0],
@@ -438,7 +438,6 @@ mod traced_tests {
             seed: 0,
             memory_budget_bytes: u64::MAX,
         };
-        let mut t = Traced::new(params);
         t.prepare(&ctx).unwrap();
         t
     }
@@ -483,7 +482,10 @@ mod traced_tests {
         let s = scene(&[half_plane(0.45)]);
         let n = Vec3::new(0.2, -0.09, 0.2).normalize();
         let exact = exact_share(0.45, n) as f32;
-        let (few, many) = (traced(&s, TracedParams::new(64)), traced(&s, TracedParams::new(16384)));
+        let (few, many) = (
+            traced(&s, Traced::new(TracedParams::CULLED, 64)),
+            traced(&s, Traced::new(TracedParams::CULLED, 16384)),
+        );
         for seed in 0..20 {
             let q = query(Vec3::ZERO, n, seed);
             let (v64, v16k) = (few.visibility(&s, &q), many.visibility(&s, &q));
@@ -512,7 +514,7 @@ mod traced_tests {
             let s = scene(&[half_plane(edge)]);
             let mut rmse_by_n = Vec::new();
             for samples in [16u32, 64, 256, 1024] {
-                let t = traced(&s, TracedParams::new(samples));
+                let t = traced(&s, Traced::new(TracedParams::CULLED, samples));
                 let v: Vec<f64> =
                     (0..seeds).map(|k| t.visibility(&s, &query(Vec3::ZERO, n, k)) as f64).collect();
                 let mean = v.iter().sum::<f64>() / seeds as f64;
@@ -550,7 +552,10 @@ mod traced_tests {
             quads.push((c, u, v));
         }
         let s = scene(&quads);
-        let (plain, culled) = (traced(&s, TracedParams::plain(1024)), traced(&s, TracedParams::new(1024)));
+        let (plain, culled) = (
+            traced(&s, Traced::new(TracedParams::PLAIN, 1024)),
+            traced(&s, Traced::new(TracedParams::CULLED, 1024)),
+        );
         let (mut clipped, mut partial) = (0, 0);
         for k in 0..600u64 {
             let p = Vec3::new(r(-2.0, 2.0), 0.0, r(-2.0, 2.0));

@@ -81,8 +81,7 @@ pub(crate) fn plain_visibility(
     if above == 0 { 1.0 } else { clear as f32 / above as f32 }
 }
 
-fn prepared(scene: &Scene, params: TracedParams) -> Traced {
-    let mut t = Traced::new(params);
+fn prepared(scene: &Scene, mut t: Traced) -> Traced {
     let ctx = PrepareContext {
         scene,
         light: &scene.lights[0],
@@ -98,8 +97,8 @@ fn prepared(scene: &Scene, params: TracedParams) -> Traced {
 /// `traced` (plain and shaft-culled, 256 samples) at a hit: both answers, which must agree.
 fn traced_at(scene: &Scene, hit: &SurfaceHit, seed: u64) -> f32 {
     let q = ShadowQuery { point: hit.point, pixel: [0, 0], seed, irradiance: 0.0 };
-    let plain = prepared(scene, TracedParams::plain(256)).visibility(scene, &q);
-    let culled = prepared(scene, TracedParams::new(256)).visibility(scene, &q);
+    let plain = prepared(scene, Traced::new(TracedParams::PLAIN, 256)).visibility(scene, &q);
+    let culled = prepared(scene, Traced::new(TracedParams::CULLED, 256)).visibility(scene, &q);
     assert_eq!(plain.to_bits(), culled.to_bits(), "plain {plain} culled {culled} at {}", hit.point.p);
     plain
 }

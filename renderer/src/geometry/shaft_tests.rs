@@ -195,8 +195,8 @@ fn plain_and_culled(s: &Scene) -> (Traced, Traced) {
         seed: 0,
         memory_budget_bytes: u64::MAX,
     };
-    let mut plain = Traced::new(TracedParams::plain(1024));
-    let mut culled = Traced::new(TracedParams { samples: 1024, shaft_culling: true });
+    let mut plain = Traced::new(TracedParams::PLAIN, 1024);
+    let mut culled = Traced::new(TracedParams::CULLED, 1024);
     plain.prepare(&ctx).unwrap();
     culled.prepare(&ctx).unwrap();
     (plain, culled)

@@ -71,13 +71,10 @@ impl LightShadowing for Unshadowed {
 pub use crate::methods::light_samples::MAX_TRACED_SAMPLES;
 
 /// Parameters of the traced method. `[shadows.traced]` takes no keys ([`NoKeys`]): the sample
-/// count is `[shadows].samples`, and shaft culling is a code-only switch (the same bits
-/// either way).
+/// count is `[shadows].samples` (given to [`ShadowMethod::build`]), and shaft culling is a
+/// code-only switch (the same bits either way).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct TracedParams {
-    /// Light samples per shading point: a stratified nx x ny grid (nx * ny = samples,
-    /// see [`strata`]), jittered per point. 1024 matches the edge-table masks.
-    pub samples: u32,
     /// Test each point's shaft to the light first ([`crate::geometry::shaft`]): where no triangle can
     /// meet it, the rays it covers are counted unblocked without being traced. The same bits
     /// either way; only the cost differs (the bench's `traced plain` turns it off).
@@ -88,19 +85,15 @@ impl TracedParams {
     pub const NAME: &'static str = "traced";
 
     /// Shafts culled: the method as it ships.
-    pub const fn new(samples: u32) -> Self {
-        Self { samples, shaft_culling: true }
-    }
+    pub const CULLED: Self = Self { shaft_culling: true };
 
     /// Every ray traced: the plain reference.
-    pub const fn plain(samples: u32) -> Self {
-        Self { samples, shaft_culling: false }
-    }
+    pub const PLAIN: Self = Self { shaft_culling: false };
 }
 
 impl Default for TracedParams {
     fn default() -> Self {
-        Self::new(256)
+        Self::CULLED
     }
 }
 
@@ -112,7 +105,7 @@ impl ShadowMethod for TracedParams {
         MAX_TRACED_SAMPLES
     }
     fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
-        Box::new(Traced::new(TracedParams { samples, ..*self }))
+        Box::new(Traced::new(*self, samples))
     }
 }
 
@@ -144,6 +137,9 @@ impl MethodEntry for TracedParams {
 #[derive(Debug)]
 pub struct Traced {
     params: TracedParams,
+    /// Light samples per shading point: a stratified nx x ny grid (nx * ny = samples, see
+    /// [`crate::geometry::irradiance_strata`]), jittered per point.
+    samples: u32,
     light: Option<RectLight>,
     rays: AtomicU64,
     occluded: AtomicU64,
@@ -155,9 +151,10 @@ pub struct Traced {
 }
 
 impl Traced {
-    pub fn new(params: TracedParams) -> Self {
+    pub fn new(params: TracedParams, samples: u32) -> Self {
         Self {
             params,
+            samples,
             seed_salt: 0,
             light: None,
             rays: AtomicU64::new(0),
@@ -194,7 +191,7 @@ impl Traced {
         culling: Culling,
     ) -> Result<PointSamples<'a>, f32> {
         let light = self.light.expect("prepare() runs before visibility()");
-        let samples = PointSamples::new(scene, light, q, self.params.samples, culling)?;
+        let samples = PointSamples::new(scene, light, q, self.samples, culling)?;
         let (tests, clear) = samples.shaft_tests();
         self.shafts.fetch_add(tests as u64, Ordering::Relaxed);
         self.shafts_clear.fetch_add(clear as u64, Ordering::Relaxed);
@@ -217,13 +214,13 @@ impl LightShadowing for Traced {
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
-        if self.params.samples == 0 {
+        if self.samples == 0 {
             return Err(ShadowError { method: "traced", message: "samples must be >= 1".into() });
         }
         // A row of strata holds at most sqrt(MAX_TRACED_SAMPLES) samples (the sample
         // stream's row buffer is that long).
-        if self.params.samples > MAX_TRACED_SAMPLES {
-            let message = format!("samples must be <= {MAX_TRACED_SAMPLES}, not {}", self.params.samples);
+        if self.samples > MAX_TRACED_SAMPLES {
+            let message = format!("samples must be <= {MAX_TRACED_SAMPLES}, not {}", self.samples);
             return Err(ShadowError { method: "traced", message });
         }
         self.light = Some(*ctx.light);
@@ -304,7 +301,7 @@ mod tests {
     }
 
     fn traced(scene: &Scene, samples: u32) -> Traced {
-        let mut t = Traced::new(TracedParams::plain(samples));
+        let mut t = Traced::new(TracedParams::PLAIN, samples);
         let ctx = PrepareContext {
             scene,
             light: &scene.lights[0],
@@ -404,10 +401,10 @@ mod tests {
             seed: 0,
             memory_budget_bytes: u64::MAX,
         };
-        let mut over = Traced::new(TracedParams::new(MAX_TRACED_SAMPLES + 1));
+        let mut over = Traced::new(TracedParams::CULLED, MAX_TRACED_SAMPLES + 1);
         let err = over.prepare(&ctx).unwrap_err();
         assert!(err.message.contains("65536"), "{err}");
-        assert!(Traced::new(TracedParams::new(MAX_TRACED_SAMPLES)).prepare(&ctx).is_ok());
+        assert!(Traced::new(TracedParams::CULLED, MAX_TRACED_SAMPLES).prepare(&ctx).is_ok());
     }
 
     #[test]

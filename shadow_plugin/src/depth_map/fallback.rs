@@ -45,7 +45,7 @@ pub struct MapFallback {
 impl MapFallback {
     pub fn new(samples: u32) -> Self {
         Self {
-            traced: Traced::new(TracedParams::new(samples)),
+            traced: Traced::new(TracedParams::CULLED, samples),
             fallbacks: AtomicU64::new(0),
             grazing: AtomicU64::new(0),
         }

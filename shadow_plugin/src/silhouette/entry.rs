@@ -26,7 +26,7 @@ impl BenchEntry for SilhouetteParams {
             .iter()
             .map(|&n| SweepSetting {
                 headline: n == top_samples(quick),
-                ..SweepSetting::new(format!("silhouette N={n}"), SilhouetteParams::new(n), n)
+                ..SweepSetting::new(format!("silhouette N={n}"), SilhouetteParams {}, n)
             })
             .collect()
     }

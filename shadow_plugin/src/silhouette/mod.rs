@@ -66,25 +66,14 @@ use renderer::{
 };
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Parameters of `silhouette`: `[shadows.silhouette]` (no keys).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct SilhouetteParams {
-    /// Light samples per shading point: `traced`'s strata, jitter and horizon warp.
-    pub samples: u32,
-}
+/// Parameters of `silhouette`: `[shadows.silhouette]` (no keys). Its samples are
+/// `[shadows].samples` (given to [`ShadowMethod::build`]): `traced`'s strata, jitter and
+/// horizon warp.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SilhouetteParams {}
 
 impl SilhouetteParams {
     pub const NAME: &'static str = "silhouette";
-
-    pub const fn new(samples: u32) -> Self {
-        Self { samples }
-    }
-}
-
-impl Default for SilhouetteParams {
-    fn default() -> Self {
-        Self::new(256)
-    }
 }
 
 impl ShadowMethod for SilhouetteParams {
@@ -95,7 +84,7 @@ impl ShadowMethod for SilhouetteParams {
         renderer::MAX_TRACED_SAMPLES
     }
     fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
-        Box::new(Silhouette::new(SilhouetteParams { samples }))
+        Box::new(Silhouette::new(samples))
     }
 }
 
@@ -165,9 +154,10 @@ struct Counters {
 }
 
 impl Silhouette {
-    pub fn new(params: SilhouetteParams) -> Self {
+    /// The plugin for one light, with `samples` light samples per shading point.
+    pub fn new(samples: u32) -> Self {
         Self {
-            traced: Traced::new(TracedParams::new(params.samples)),
+            traced: Traced::new(TracedParams::CULLED, samples),
             id: 0,
             edges: EdgeSet::default(),
             tree: EdgeTree::default(),
