@@ -6,9 +6,6 @@ use crate::profile;
 use renderer::{Frame, SceneError};
 use std::path::{Path, PathBuf};
 
-/// Largest width x height x spp accepted.
-pub const MAX_PRIMARY_SAMPLES: u64 = 1 << 26;
-
 /// A frame's pixels as the outputs write them: a whole render's, or a merge's tiles'.
 pub struct Pixels<'a> {
     pub width: u32,

@@ -3,12 +3,13 @@
 //! aside). Every tile is read and checked before anything is staged, and the outputs are
 //! committed together: a bad set of tiles writes nothing.
 
-use crate::frame_files::{MAX_PRIMARY_SAMPLES, Pixels, stage_images, stage_profile};
+use crate::frame_files::{Pixels, stage_images, stage_profile};
 use crate::output::StagedFiles;
 use crate::report::{ProfileTotals, RunReport, TileInfo, TileRun, Timings};
 use crate::tile::PixelDigest;
 use glam::Vec3;
 use renderer::SceneError as CliError;
+use renderer::load::config::MAX_PRIMARY_SAMPLES;
 use renderer::util::profile::{PixelCost, Work};
 use renderer::{FrameTally, SceneError};
 use std::collections::BTreeMap;

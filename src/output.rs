@@ -211,6 +211,24 @@ impl Drop for StagedFiles {
     }
 }
 
+/// Makes SIGINT and SIGTERM remove every staged temporary file (`StagedFiles`) before the
+/// process exits with status 128 + the signal (130, 143), as a shell reports a signal.
+/// Call once, early in `main`.
+pub fn exit_cleanly_on_signals() {
+    use signal_hook::consts::{SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM]) else {
+        return; // without a handler the default action (exit, temp files left) stays
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            let removed = remove_staged_files();
+            let name = if signal == SIGINT { "SIGINT" } else { "SIGTERM" };
+            eprintln!("penumbra: interrupted by {name}; removed {removed} temporary file(s)");
+            std::process::exit(128 + signal);
+        }
+    });
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -466,3 +466,41 @@ fn progress_names_every_phase_on_a_terminal() {
     assert_eq!(String::from_utf8_lossy(&piped.stderr), "", "nothing on stderr without a terminal");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The command line's values are merged into the scene file before it is checked, and the
+/// merged request is checked once: a file too large to render renders at a flag's smaller
+/// size, a limit across keys names the flag that broke it, and a sample count is checked
+/// against the method a flag chose.
+#[test]
+fn flags_are_checked_with_the_scene_file_as_one_request() {
+    let dir = temp_dir("one_request");
+    // 16384 x 16384 x 1 primary samples: over the 2^26 the frame keeps.
+    let huge = SCENE.replace("width = 48", "width = 16384").replace("height = 32", "height = 16384");
+    assert_ne!(huge, SCENE);
+    std::fs::write(dir.join("huge.toml"), huge).unwrap();
+    assert_bad_input(
+        &dir,
+        &["render", "huge.toml", "--out", "o.png"],
+        &["huge.toml", "image.spp", "67108864"],
+    );
+    let o = penumbra(
+        &["render", "huge.toml", "--width", "48", "--height", "32", "--out", "o.png", "--quiet"],
+        &dir,
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["o.png", "o.exr", "o.json"] {
+        std::fs::remove_file(dir.join(f)).unwrap();
+    }
+    std::fs::write(dir.join("ok.toml"), SCENE).unwrap();
+    let cases: [(&[&str], &[&str]); 3] = [
+        (&["--width", "8192", "--height", "8192", "--spp", "2"], &["ok.toml", "--spp", "67108864"]),
+        (&["--shadows", "pcss", "--samples", "65536"], &["ok.toml", "--samples", "1..=4096 for pcss"]),
+        (&["--samples", "65536", "--shadows", "edge_table"], &["ok.toml", "--samples", "for edge_table"]),
+    ];
+    for (flags, names) in cases {
+        let mut args = vec!["render", "ok.toml", "--out", "o.png"];
+        args.extend_from_slice(flags);
+        assert_bad_input(&dir, &args, names);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

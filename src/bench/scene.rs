@@ -8,6 +8,7 @@ use super::truth::Truth;
 use super::{BENCH_WIDTH, BenchArgs, QUICK_WIDTH, cost, figures, metrics, plot, truth};
 use crate::methods::Registered;
 use crate::output::StagedFiles;
+use crate::request::{Overrides, Request};
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile};
 use std::path::{Path, PathBuf};
 
@@ -41,8 +42,8 @@ impl Plan<'_> {
 pub(super) fn check_scenes(args: &BenchArgs) -> Result<Vec<(PathBuf, SceneFile, String)>, SceneError> {
     let mut files = Vec::new();
     for path in &args.scenes {
-        let file = SceneFile::load(path)?;
-        crate::config::ShadowsConfig::from_table(&file.shadows, path)?;
+        // Typed whole, `[shadows]` included, as `render` types it.
+        let file = Request::read(Some(path), &Overrides::default())?.file;
         // Loaded once here too (then dropped), so that a broken model or a scene without a
         // light stops the bench before any scene's sweep, not after.
         if Scene::load(&file, path)?.lights.is_empty() {

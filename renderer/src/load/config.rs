@@ -1,9 +1,12 @@
 //! The scene file (TOML), typed. Every table rejects unknown keys; every error names the
-//! file and the key. The `[shadows]` table is kept raw here: only the CLI knows every shadow
-//! method, so it types that table itself (see `penumbra::config`).
+//! file and the key. Values given outside the file (the command line's flags, [`Override`])
+//! are merged into its table before it is typed, so that the file and its overrides are
+//! checked once, by the same ranges in the same words. The `[shadows]` table is kept raw
+//! here: only the CLI knows every shadow method, so it types that table itself (see
+//! `penumbra::config`).
 
 use crate::util::error::SceneError;
-use crate::util::keys::deserialize_toml;
+use crate::util::keys::{deserialize_toml, deserialize_value};
 use serde::Deserialize;
 use std::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
@@ -155,6 +158,44 @@ pub const MAX_SPP: u32 = 4096;
 pub const IMAGE_SIDE: RangeInclusive<u32> = 1..=MAX_IMAGE_SIDE;
 pub const SPP: RangeInclusive<u32> = 1..=MAX_SPP;
 
+/// Most primary samples a frame keeps (width x height x spp): every one is kept for the
+/// shadow methods' `prepare`, about 100 bytes each.
+pub const MAX_PRIMARY_SAMPLES: u64 = 1 << 26;
+
+/// A value for one of the scene file's keys given elsewhere (a flag), in its place.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Override {
+    /// The key's path: `image.width`, `shadows.samples`.
+    pub key: &'static str,
+    /// What gave it, named by errors about it instead of the key: `--width`.
+    pub source: &'static str,
+    pub value: toml::Value,
+}
+
+impl Override {
+    /// `e` naming the source of the override its key has, if any, instead of the key.
+    pub fn relabel(overrides: &[Override], mut e: SceneError) -> SceneError {
+        if let Some(o) = overrides.iter().find(|o| o.key == e.key) {
+            e.key = o.source.to_string();
+        }
+        e
+    }
+
+    /// `table` with this value at its key (the tables on the way made if absent; a value on
+    /// the way that is not a table is left for typing to refuse).
+    fn apply(&self, table: &mut toml::Table) {
+        let mut parts: Vec<&str> = self.key.split('.').collect();
+        let last = parts.pop().expect("a key has a name");
+        let mut t = table;
+        for part in parts {
+            let entry = t.entry(part).or_insert_with(|| toml::Value::Table(toml::Table::new()));
+            let Some(inner) = entry.as_table_mut() else { return };
+            t = inner;
+        }
+        t.insert(last.to_string(), self.value.clone());
+    }
+}
+
 /// The error for a whole-number setting outside `range` (or not a whole number): the range,
 /// and what was given.
 pub fn range_message(range: &RangeInclusive<u32>, got: &dyn std::fmt::Display) -> String {
@@ -165,15 +206,32 @@ impl SceneFile {
     /// Reads and validates a scene file. Relative model paths stay relative; resolve them
     /// with [`SceneFile::resolve`].
     pub fn load(path: &Path) -> Result<Self, SceneError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| SceneError::new(path, "", format!("cannot read scene file: {e}")))?;
-        Self::parse(&text, path)
+        Self::parse(&Self::read(path)?, path)
+    }
+
+    /// The text of the scene file at `path`.
+    pub fn read(path: &Path) -> Result<String, SceneError> {
+        std::fs::read_to_string(path)
+            .map_err(|e| SceneError::new(path, "", format!("cannot read scene file: {e}")))
     }
 
     /// Parses scene text; `path` names the file in errors and anchors relative paths.
     pub fn parse(text: &str, path: &Path) -> Result<Self, SceneError> {
-        let scene: SceneFile = deserialize_toml(text, path, "")?;
-        scene.validate(path)?;
+        Self::parse_with(text, path, &[])
+    }
+
+    /// Parses scene text with `overrides` in place of the file's values, then checks the
+    /// whole once. An error about an overridden key names its source (the flag).
+    pub fn parse_with(text: &str, path: &Path, overrides: &[Override]) -> Result<Self, SceneError> {
+        let scene: SceneFile = if overrides.is_empty() {
+            deserialize_toml(text, path, "")?
+        } else {
+            let mut table: toml::Table = deserialize_toml(text, path, "")?;
+            overrides.iter().for_each(|o| o.apply(&mut table));
+            deserialize_value(toml::Value::Table(table), path, "")
+                .map_err(|e| Override::relabel(overrides, e))?
+        };
+        scene.validate(path).map_err(|e| Override::relabel(overrides, e))?;
         Ok(scene)
     }
 
@@ -255,6 +313,14 @@ impl SceneFile {
         }
         if !SPP.contains(&im.spp) {
             return err("image.spp".into(), &range_message(&SPP, &im.spp));
+        }
+        if im.width as u64 * im.height as u64 * im.spp as u64 > MAX_PRIMARY_SAMPLES {
+            return err(
+                "image.spp".into(),
+                &format!(
+                    "width x height x spp must be at most {MAX_PRIMARY_SAMPLES} (about 6 GB of samples)"
+                ),
+            );
         }
         let depth = self.integrator.max_depth;
         if !crate::integrator::path::DEPTH_RANGE.contains(&depth) {
