@@ -1,6 +1,8 @@
-//! `traced`'s light samples of one shading point: the strata, the jitter from the point's
-//! seed, the horizon warp and the shafts proven clear, drawn in one order. `traced` traces
-//! them; methods that must agree with it sample by sample (`silhouette`) draw the same.
+//! `traced`'s light samples, a service of the renderer's: per light a [`SampleStream`], and
+//! per shading point its [`PointSamples`] (the strata, the jitter from the point's seed, the
+//! horizon warp and the shafts proven clear, drawn in one order), with the rays that test
+//! them. `traced` traces them all; methods that must agree with it sample by sample
+//! (`silhouette`) draw the same and trace what they cannot settle.
 
 use crate::geometry::irradiance_strata::{Columns, IrradianceStrata};
 use crate::geometry::light::RectLight;
@@ -9,10 +11,11 @@ use crate::geometry::ray_origin::offset_origin;
 use crate::geometry::scene::Scene;
 use crate::geometry::shaft;
 use crate::interface::shadowing::ShadowQuery;
-use crate::methods::irradiance_share::IrradianceShare;
+use crate::methods::irradiance_share::{IrradianceShare, ShareTally};
 use crate::util::sampling::{Rng, strata};
 use glam::Vec3;
 use std::cell::OnceCell;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Which shafts prove samples unblocked before any ray.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,6 +35,67 @@ pub const MAX_TRACED_SAMPLES: u32 = 65536;
 /// [`MAX_TRACED_SAMPLES`].
 const MAX_ROW: usize = 256;
 const _: () = assert!(MAX_ROW * MAX_ROW >= MAX_TRACED_SAMPLES as usize);
+
+/// The light samples of one light, `samples` per shading point: prepared with the light,
+/// then asked for each point's ([`SampleStream::point`]). Counts the shafts its culling tests.
+#[derive(Debug)]
+pub struct SampleStream {
+    samples: u32,
+    light: Option<RectLight>,
+    /// Shafts tested, and those found clear.
+    shafts: AtomicU64,
+    shafts_clear: AtomicU64,
+}
+
+impl SampleStream {
+    /// A stream of `samples` per point, for a light still to come ([`SampleStream::prepare`]).
+    pub fn new(samples: u32) -> Self {
+        Self { samples, light: None, shafts: AtomicU64::new(0), shafts_clear: AtomicU64::new(0) }
+    }
+
+    /// Takes the light, or says why the sample count cannot be drawn.
+    pub fn prepare(&mut self, light: RectLight) -> Result<(), String> {
+        if self.samples == 0 {
+            return Err("samples must be >= 1".into());
+        }
+        // A row of strata holds at most sqrt(MAX_TRACED_SAMPLES) samples (the row buffer
+        // is that long).
+        if self.samples > MAX_TRACED_SAMPLES {
+            return Err(format!("samples must be <= {MAX_TRACED_SAMPLES}, not {}", self.samples));
+        }
+        self.light = Some(light);
+        Ok(())
+    }
+
+    /// The prepared light, if any.
+    pub fn light(&self) -> Option<&RectLight> {
+        self.light.as_ref()
+    }
+
+    /// The samples of `q` with shafts tested as `culling` says, or `Err` with the answer when
+    /// the whole light is proven clear.
+    pub fn point<'a>(
+        &self,
+        scene: &Scene,
+        q: &'a ShadowQuery,
+        culling: Culling,
+    ) -> Result<PointSamples<'a>, f32> {
+        let light = self.light.expect("prepare() runs before visibility()");
+        let samples = PointSamples::new(scene, light, q, self.samples, culling)?;
+        let (tests, clear) = samples.shaft_tests();
+        self.shafts.fetch_add(tests as u64, Ordering::Relaxed);
+        self.shafts_clear.fetch_add(clear as u64, Ordering::Relaxed);
+        Ok(samples)
+    }
+
+    /// The shafts tested and those found clear, as the run report names them.
+    pub fn shaft_counters(&self) -> [(&'static str, u64); 2] {
+        [
+            ("shafts", self.shafts.load(Ordering::Relaxed)),
+            ("shafts_clear", self.shafts_clear.load(Ordering::Relaxed)),
+        ]
+    }
+}
 
 /// A placeholder for [`PointSamples::for_each`]'s row buffer.
 const EMPTY_SAMPLE: LightSample =
@@ -362,6 +426,22 @@ impl<'a> PointSamples<'a> {
             && (self.plain_grid() || ((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)))
             && self.cover.covers(height, w);
         Some(LightSample { a, b, target, height, proven, stratum: i + nx * j, scale })
+    }
+
+    /// Every sample traced (but those a shaft proved unblocked), counted and weighed in
+    /// stratum order: the tally, and the rays traced. `traced`'s answer, and the whole-point
+    /// fallback of the methods that must agree with it bit for bit.
+    pub fn trace(&self, scene: &Scene) -> (ShareTally, u32) {
+        let (mut tally, mut traced) = (ShareTally::default(), 0u32);
+        self.for_each(|s| {
+            // Inside a clear shaft: proven unblocked, no ray.
+            let blocked = !s.proven && {
+                traced += 1;
+                self.occluded(scene, &s)
+            };
+            tally.add(self.weight(&s), blocked);
+        });
+        (tally, traced)
     }
 
     /// Whether `s`'s shadow ray (`traced`'s own) meets any of the triangles `slots`, alone

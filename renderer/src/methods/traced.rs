@@ -1,13 +1,11 @@
 //! The two built-in methods: `traced`, the ground truth (shadow rays through the BVH), and
 //! `none`, the cost floor. Both are configured like every plugin ([`crate::interface::method`]).
 
-use crate::geometry::light::RectLight;
 use crate::geometry::scene::Scene;
 use crate::interface::entry::MethodEntry;
 use crate::interface::method::{KeyError, MethodParams, NoKeys, ShadowMethod};
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
-use crate::methods::irradiance_share::ShareTally;
-use crate::methods::light_samples::{Culling, PointSamples};
+use crate::methods::light_samples::{Culling, SampleStream};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// No shadows: V = 1 everywhere. The cost floor every method's shadow cost is measured
@@ -137,15 +135,11 @@ impl MethodEntry for TracedParams {
 #[derive(Debug)]
 pub struct Traced {
     params: TracedParams,
-    /// Light samples per shading point: a stratified nx x ny grid (nx * ny = samples, see
+    /// The light samples (a stratified nx x ny grid per point, nx * ny = samples, see
     /// [`crate::geometry::irradiance_strata`]), jittered per point.
-    samples: u32,
-    light: Option<RectLight>,
+    stream: SampleStream,
     rays: AtomicU64,
     occluded: AtomicU64,
-    /// Shafts tested, and those found clear.
-    shafts: AtomicU64,
-    shafts_clear: AtomicU64,
     /// [`LightShadowing::seed_salt`]: 0 but for [`Traced::with_seed_salt`].
     seed_salt: u64,
 }
@@ -154,53 +148,18 @@ impl Traced {
     pub fn new(params: TracedParams, samples: u32) -> Self {
         Self {
             params,
-            samples,
+            stream: SampleStream::new(samples),
             seed_salt: 0,
-            light: None,
             rays: AtomicU64::new(0),
             occluded: AtomicU64::new(0),
-            shafts: AtomicU64::new(0),
-            shafts_clear: AtomicU64::new(0),
         }
     }
-}
 
-impl Traced {
     /// The same method drawing light samples of its own: `salt` is mixed into its queries'
     /// seeds ([`LightShadowing::seed_salt`]). The bench's truth along the runs' paths is such
     /// a `Traced`, so that its error is not read against the runs' own samples.
     pub fn with_seed_salt(self, salt: u64) -> Self {
         Self { seed_salt: salt, ..self }
-    }
-}
-
-impl Traced {
-    /// The samples of `q` with their shafts tested (when culling), or `Err` with the answer
-    /// when the whole light is proven clear: the one stream `traced` and the methods that
-    /// compare with it sample by sample draw from.
-    pub fn point_samples<'a>(&self, scene: &Scene, q: &'a ShadowQuery) -> Result<PointSamples<'a>, f32> {
-        let culling = if self.params.shaft_culling { Culling::Leaves } else { Culling::Off };
-        self.point_samples_culled(scene, q, culling)
-    }
-
-    /// [`Traced::point_samples`] with shafts tested as `culling` says.
-    pub fn point_samples_culled<'a>(
-        &self,
-        scene: &Scene,
-        q: &'a ShadowQuery,
-        culling: Culling,
-    ) -> Result<PointSamples<'a>, f32> {
-        let light = self.light.expect("prepare() runs before visibility()");
-        let samples = PointSamples::new(scene, light, q, self.samples, culling)?;
-        let (tests, clear) = samples.shaft_tests();
-        self.shafts.fetch_add(tests as u64, Ordering::Relaxed);
-        self.shafts_clear.fetch_add(clear as u64, Ordering::Relaxed);
-        Ok(samples)
-    }
-
-    /// The prepared light.
-    pub fn light(&self) -> Option<&RectLight> {
-        self.light.as_ref()
     }
 }
 
@@ -214,17 +173,7 @@ impl LightShadowing for Traced {
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
-        if self.samples == 0 {
-            return Err(ShadowError { method: "traced", message: "samples must be >= 1".into() });
-        }
-        // A row of strata holds at most sqrt(MAX_TRACED_SAMPLES) samples (the sample
-        // stream's row buffer is that long).
-        if self.samples > MAX_TRACED_SAMPLES {
-            let message = format!("samples must be <= {MAX_TRACED_SAMPLES}, not {}", self.samples);
-            return Err(ShadowError { method: "traced", message });
-        }
-        self.light = Some(*ctx.light);
-        Ok(())
+        self.stream.prepare(*ctx.light).map_err(|message| ShadowError { method: "traced", message })
     }
 
     /// Traced rays need only the light.
@@ -233,11 +182,12 @@ impl LightShadowing for Traced {
     }
 
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
-        let samples = match self.point_samples(scene, q) {
+        let culling = if self.params.shaft_culling { Culling::Leaves } else { Culling::Off };
+        let samples = match self.stream.point(scene, q, culling) {
             Ok(samples) => samples,
             Err(visibility) => return visibility,
         };
-        let (tally, traced) = trace_samples(scene, &samples);
+        let (tally, traced) = samples.trace(scene);
         // Relaxed counters: one add per query, not per ray (measured: no visible cost).
         self.rays.fetch_add(traced as u64, Ordering::Relaxed);
         self.occluded.fetch_add(tally.blocked as u64, Ordering::Relaxed);
@@ -252,33 +202,17 @@ impl LightShadowing for Traced {
             ("shadow_rays_occluded", self.occluded.load(Ordering::Relaxed)),
         ];
         if self.params.shaft_culling {
-            c.push(("shafts", self.shafts.load(Ordering::Relaxed)));
-            c.push(("shafts_clear", self.shafts_clear.load(Ordering::Relaxed)));
+            c.extend(self.stream.shaft_counters());
         }
         c
     }
-}
-
-/// Every sample of `samples` traced (but those a shaft proved unblocked), counted and
-/// weighed in stratum order: the tally, and the rays traced. `traced`'s answer, and the
-/// whole-point fallback of the methods that must agree with it bit for bit.
-pub fn trace_samples(scene: &Scene, samples: &PointSamples) -> (ShareTally, u32) {
-    let (mut tally, mut traced) = (ShareTally::default(), 0u32);
-    samples.for_each(|s| {
-        // Inside a clear shaft: proven unblocked, no ray.
-        let blocked = !s.proven && {
-            traced += 1;
-            samples.occluded(scene, &s)
-        };
-        tally.add(samples.weight(&s), blocked);
-    });
-    (tally, traced)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geometry::camera::Camera;
+    use crate::geometry::light::RectLight;
     use crate::geometry::point::ShadingPoint;
     use crate::load::gltf_load::Geometry;
     use glam::DVec3;

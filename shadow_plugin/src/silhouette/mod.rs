@@ -58,11 +58,10 @@ mod welding;
 use edge_tree::EdgeTree;
 use edges::EdgeSet;
 use renderer::interface::method::NoKeys;
-use renderer::methods::light_samples::{Culling, LightSample};
-use renderer::methods::traced::trace_samples;
+use renderer::methods::light_samples::{Culling, LightSample, SampleStream};
 use renderer::{
     KeyError, LightShadowing, MethodParams, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod,
-    ShadowQuery, Traced, TracedParams,
+    ShadowQuery,
 };
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -120,10 +119,11 @@ enum Fallback {
     KeptInstance,
 }
 
-/// The plugin: the light's edge set and `traced` (for the samples and the rays).
+/// The plugin: the light's edge set and `traced`'s samples (the renderer's [`SampleStream`],
+/// which also traces what the counting leaves).
 #[derive(Debug)]
 pub struct Silhouette {
-    traced: Traced,
+    stream: SampleStream,
     /// This preparation's identity: the per-thread block caches' entries carry it.
     id: u64,
     edges: EdgeSet,
@@ -157,7 +157,7 @@ impl Silhouette {
     /// The plugin for one light, with `samples` light samples per shading point.
     pub fn new(samples: u32) -> Self {
         Self {
-            traced: Traced::new(TracedParams::CULLED, samples),
+            stream: SampleStream::new(samples),
             id: 0,
             edges: EdgeSet::default(),
             tree: EdgeTree::default(),
@@ -167,7 +167,7 @@ impl Silhouette {
     }
 
     fn light(&self) -> &RectLight {
-        self.traced.light().expect("prepare() runs before visibility()")
+        self.stream.light().expect("prepare() runs before visibility()")
     }
 
     /// Every sample traced as `traced` traces it (the whole-point fallback), with its culling
@@ -184,11 +184,11 @@ impl Silhouette {
             Fallback::KeptInstance => &c.fallback_kept_instance,
         }
         .fetch_add(1, Ordering::Relaxed);
-        let culled = match self.traced.point_samples_culled(scene, q, Culling::Leaves) {
+        let culled = match self.stream.point(scene, q, Culling::Leaves) {
             Ok(culled) => culled,
             Err(visibility) => return visibility,
         };
-        let (tally, rays) = trace_samples(scene, &culled);
+        let (tally, rays) = culled.trace(scene);
         c.rays.fetch_add(rays as u64, Ordering::Relaxed);
         tally.visibility(culled.share())
     }
@@ -199,7 +199,7 @@ impl Silhouette {
     /// the counting settles it, `None` where it is traced (the sample, or the whole point).
     /// For differential tests: allocates.
     pub fn verdicts(&self, scene: &Scene, q: &ShadowQuery) -> Vec<(LightSample, Option<bool>)> {
-        let samples = match self.traced.point_samples_culled(scene, q, CULLING) {
+        let samples = match self.stream.point(scene, q, CULLING) {
             Ok(samples) => samples,
             Err(_) => return Vec::new(), // every sample proven lit by shafts, none counted
         };
@@ -212,7 +212,7 @@ impl Silhouette {
 
     /// `traced`'s verdicts on `samples` of `q` (its own rays): whether each is lit.
     pub fn traced_lit(&self, scene: &Scene, q: &ShadowQuery, samples: &[LightSample]) -> Vec<bool> {
-        match self.traced.point_samples(scene, q) {
+        match self.stream.point(scene, q, Culling::Leaves) {
             Ok(stream) => samples.iter().map(|s| s.proven || !stream.occluded(scene, s)).collect(),
             Err(_) => vec![true; samples.len()],
         }
@@ -225,7 +225,9 @@ impl LightShadowing for Silhouette {
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
-        self.traced.prepare(ctx).map_err(|e| ShadowError { method: SilhouetteParams::NAME, ..e })?;
+        self.stream
+            .prepare(*ctx.light)
+            .map_err(|message| ShadowError { method: SilhouetteParams::NAME, message })?;
         self.edges = EdgeSet::build(ctx.scene, ctx.light);
         self.tree = EdgeTree::build(&self.edges);
         self.kept = kept::KeptEdges::build(ctx.scene, ctx.light);
@@ -242,7 +244,7 @@ impl LightShadowing for Silhouette {
 
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         self.counters.points.fetch_add(1, Ordering::Relaxed);
-        let samples = match self.traced.point_samples_culled(scene, q, CULLING) {
+        let samples = match self.stream.point(scene, q, CULLING) {
             Ok(samples) => samples,
             Err(visibility) => return visibility,
         };
@@ -285,7 +287,7 @@ impl LightShadowing for Silhouette {
             ("instance_mesh_edges", self.kept.mesh_edges),
         ];
         // `traced`'s shaft counters (its rays are never traced through it).
-        out.extend(self.traced.counters().into_iter().filter(|(k, _)| k.starts_with("shafts")));
+        out.extend(self.stream.shaft_counters());
         out
     }
 

@@ -44,23 +44,28 @@ fn reference(active: &[ActiveEdge]) -> Result<DVec2, Fallback> {
 /// The two origins a point's rays start from: above its geometric tangent plane (every
 /// sample over that plane), and below it (the samples under it: the light seen past a
 /// smoothed normal). Each side is counted on its own, from its own origin, with its own ray.
+/// It carries what the counting reads of the point's samples besides the samples
+/// themselves (their strata), so that only drawing and tracing go back to the stream.
 #[derive(Clone, Copy)]
 struct Side {
     /// The point as seen from this side: `n_geom` toward the side's origin.
     point: ShadingPoint,
     origin: Vec3,
     below: bool,
+    /// The samples' strata grid ([`PointSamples::strata`]).
+    strata: (u32, u32),
 }
 
 impl Side {
-    fn both(q: &ShadowQuery, above: Vec3) -> [Side; 2] {
+    fn both(q: &ShadowQuery, samples: &PointSamples) -> [Side; 2] {
         let mut flipped = q.point;
         flipped.n_geom = -flipped.n_geom;
         flipped.n_shading = -flipped.n_shading;
         let below = offset_origin(&flipped, flipped.n_geom);
+        let strata = samples.strata();
         [
-            Side { point: q.point, origin: above, below: false },
-            Side { point: flipped, origin: below, below: true },
+            Side { point: q.point, origin: samples.origin, below: false, strata },
+            Side { point: flipped, origin: below, below: true, strata },
         ]
     }
 }
@@ -70,12 +75,12 @@ impl Side {
 /// corners: then, with no active edge and no flagged triangle in the shaft, one ray answers
 /// the whole point without drawing a sample. (The horizon's margin, 1e-4 of the distance,
 /// is far above the rounding of the per-sample test it stands for.)
-fn wholly_above(light: &RectLight, q: &ShadowQuery, samples: &PointSamples) -> bool {
-    let p = &q.point;
+fn wholly_above(light: &RectLight, above: &Side, warped: bool) -> bool {
+    let p = &above.point;
     let corners = light.corners();
     let far = corners.iter().map(|&c| (c - p.p).abs().element_sum()).fold(0.0, f32::max);
-    !samples.warped()
-        && shaft::covers_light(p, samples.origin, light)
+    !warped
+        && shaft::covers_light(p, above.origin, light)
         && corners.iter().all(|&c| p.n_shading.dot(c - p.p) > 1e-4 * far)
 }
 
@@ -85,12 +90,11 @@ fn wholly_above(light: &RectLight, q: &ShadowQuery, samples: &PointSamples) -> b
 fn one_ray(
     plugin: &Silhouette,
     scene: &Scene,
-    q: &ShadowQuery,
+    above: &Side,
     samples: &PointSamples,
     s: &mut Scratch,
 ) -> Result<Option<f32>, Fallback> {
-    let side = Side::both(q, samples.origin)[0];
-    side_edges((plugin, scene), &side, samples, s)?;
+    side_edges((plugin, scene), above, s)?;
     if !(s.active.is_empty() && s.regions.is_empty()) {
         return Ok(None);
     }
@@ -106,7 +110,7 @@ fn one_ray(
 fn relative_counts(
     plugin: &Silhouette,
     scene: &Scene,
-    q: &ShadowQuery,
+    sides: [Side; 2],
     samples: &PointSamples,
     s: &mut Scratch,
     rays: &mut u64,
@@ -123,19 +127,16 @@ fn relative_counts(
     s.mixed.clear();
     s.mixed.resize(s.samples.len(), 0);
     let mut lit = [None; 2];
-    for side in Side::both(q, samples.origin) {
+    for side in sides {
         if !s.samples.iter().any(|x| (x.height < 0.0) == side.below) {
             continue;
         }
         if side.below {
             plugin.counters.points_below.fetch_add(1, Ordering::Relaxed);
         }
-        let edges = if side.below || !above_gathered {
-            side_edges((plugin, scene), &side, samples, s)
-        } else {
-            Ok(())
-        };
-        match edges.and_then(|()| side_counts(plugin, &side, samples, s)) {
+        let edges =
+            if side.below || !above_gathered { side_edges((plugin, scene), &side, s) } else { Ok(()) };
+        match edges.and_then(|()| side_counts(plugin, &side, s)) {
             Ok(()) => {
                 let l = lit_count(plugin, scene, samples, s, side.below, rays)?;
                 test_mixed(plugin, scene, samples, s, side.below, l);
@@ -173,18 +174,13 @@ const MAX_CANDIDATES_PER_SAMPLE_QUARTERS: usize = 32;
 
 /// One side's active edges and flagged triangles' regions, into `s` (see [`Side`]); `Costly`
 /// where the counting would cost more than tracing the point's samples.
-fn side_edges(
-    (plugin, scene): (&Silhouette, &Scene),
-    side: &Side,
-    samples: &PointSamples,
-    s: &mut Scratch,
-) -> Result<(), Fallback> {
+fn side_edges((plugin, scene): (&Silhouette, &Scene), side: &Side, s: &mut Scratch) -> Result<(), Fallback> {
     let light = plugin.light();
     let frame = Frame::new(light, side.origin).ok_or(Fallback::NoShaft)?;
     // The whole hull: the path from the reference point to a sample may pass over parts of
     // the light under the tangent plane, and every edge projected there counts.
     let shaft = Shaft::new(light, &side.point).ok_or(Fallback::NoShaft)?.without_cut();
-    let (nx, ny) = samples.strata();
+    let (nx, ny) = side.strata;
     let n = (nx * ny) as usize;
     s.gather((plugin, scene), &shaft, frame.o, MAX_CANDIDATES_PER_SAMPLE_QUARTERS * n / 4)?;
     s.activate(plugin, &frame)?;
@@ -201,12 +197,7 @@ fn side_edges(
 
 /// The counts of one side's samples from its edges ([`side_edges`]), and which of them must
 /// be traced.
-fn side_counts(
-    plugin: &Silhouette,
-    side: &Side,
-    samples: &PointSamples,
-    s: &mut Scratch,
-) -> Result<(), Fallback> {
+fn side_counts(plugin: &Silhouette, side: &Side, s: &mut Scratch) -> Result<(), Fallback> {
     let light = plugin.light();
     // This side's pairs only ([`Scratch::test_regions`] fills them; it may not run).
     s.mixed_pairs.clear();
@@ -224,15 +215,15 @@ fn side_counts(
             }
         }
         if !s.regions.is_empty() {
-            s.test_regions(samples.strata(), side.below);
+            s.test_regions(side.strata, side.below);
         }
     }
     if s.active.is_empty() {
         return Ok(());
     }
     let r = reference(&s.active)?;
-    s.bin(samples.strata(), side.below);
-    let (nx, ny) = samples.strata();
+    s.bin(side.strata, side.below);
+    let (nx, ny) = side.strata;
     let (nx, ny) = (nx as usize, ny as usize);
     let cells = nx * ny;
     let Scratch { active, plans, starts, cell_steps, a, b, grid_rel, near, order, rel, uncertain, .. } = s;
@@ -478,8 +469,9 @@ pub(super) fn count(
     SCRATCH.with(|cell| {
         let s = &mut *cell.borrow_mut();
         let light = plugin.light();
-        let gathered = wholly_above(light, q, samples);
-        if gathered && let Some(v) = one_ray(plugin, scene, q, samples, s)? {
+        let sides = Side::both(q, samples);
+        let gathered = wholly_above(light, &sides[0], samples.warped());
+        if gathered && let Some(v) = one_ray(plugin, scene, &sides[0], samples, s)? {
             return Ok(v);
         }
         if gathered
@@ -492,7 +484,7 @@ pub(super) fn count(
         }
         plugin.counters.points_by_sample.fetch_add(1, Ordering::Relaxed);
         let mut rays = 0u64;
-        let lit = relative_counts(plugin, scene, q, samples, s, &mut rays, gathered)?;
+        let lit = relative_counts(plugin, scene, sides, samples, s, &mut rays, gathered)?;
         if s.samples.is_empty() {
             return Ok(1.0);
         }
@@ -532,7 +524,7 @@ pub(super) fn verdicts(
 ) -> Result<Vec<(LightSample, Option<bool>)>, Fallback> {
     SCRATCH.with(|cell| {
         let s = &mut *cell.borrow_mut();
-        let lit = relative_counts(plugin, scene, q, samples, s, &mut 0, false)?;
+        let lit = relative_counts(plugin, scene, Side::both(q, samples), samples, s, &mut 0, false)?;
         Ok((0..s.samples.len())
             .map(|k| {
                 let x = s.samples[k];
