@@ -1,9 +1,10 @@
 //! The frame's files, staged all or nothing: the PNG, the EXR, each light's visibility and
 //! `--profile`'s cost images. What `render`, `render --tile` and `merge` write alike.
 
+use crate::error::{CliError, OutputError};
 use crate::output::StagedFiles;
 use crate::profile;
-use renderer::{Frame, SceneError};
+use renderer::Frame;
 use std::path::{Path, PathBuf};
 
 /// A frame's pixels as the outputs write them: a whole render's, or a merge's tiles'.
@@ -16,10 +17,10 @@ pub struct Pixels<'a> {
 }
 
 /// Creates the folder `png` goes in.
-pub fn create_output_folder(png: &Path) -> Result<(), SceneError> {
+pub fn create_output_folder(png: &Path) -> Result<(), CliError> {
     if let Some(dir) = png.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
-            .map_err(|e| SceneError::new(dir, "--out", format!("cannot create the folder: {e}")))?;
+            .map_err(|e| OutputError::new(dir, "--out", format!("cannot create the folder: {e}")))?;
     }
     Ok(())
 }
@@ -31,15 +32,15 @@ pub fn stage_images(
     px: &Pixels,
     aov: bool,
     staged: &mut StagedFiles,
-) -> Result<Vec<PathBuf>, SceneError> {
+) -> Result<Vec<PathBuf>, CliError> {
     let (width, height) = (px.width, px.height);
     // A NaN or an infinity never reaches a file: refuse before anything is staged.
     let exr = png.with_extension("exr");
     crate::output::check_finite(px.radiance).map_err(|e| {
-        SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
+        OutputError::new(&exr, "--out", format!("the radiance overflowed f32 (lights too bright?): {e}"))
     })?;
     create_output_folder(png)?;
-    let io = |e: String| SceneError::new(png, "--out", e);
+    let io = |e: String| OutputError::new(png, "--out", e);
     let mut outputs = vec![png.to_path_buf()];
     staged.png(png, width, height, px.radiance).map_err(io)?;
     staged.exr(&exr, width, height, px.radiance).map_err(io)?;
@@ -81,13 +82,13 @@ pub fn stage_profile(
     costs: &[renderer::util::profile::PixelCost],
     missed: &[bool],
     staged: &mut StagedFiles,
-) -> Result<Vec<PathBuf>, SceneError> {
+) -> Result<Vec<PathBuf>, CliError> {
     let (exr, heat) = (png.with_extension("cost.exr"), png.with_extension("cost.png"));
     let exr_bytes =
-        profile::cost_exr(width, height, costs, None).map_err(|e| SceneError::new(&exr, "", e))?;
-    staged.bytes(&exr, &exr_bytes).map_err(|e| SceneError::new(&exr, "--out", e))?;
+        profile::cost_exr(width, height, costs, None).map_err(|e| OutputError::new(&exr, "--out", e))?;
+    staged.bytes(&exr, &exr_bytes).map_err(|e| OutputError::new(&exr, "--out", e))?;
     let png_bytes =
-        profile::cost_png(width, height, costs, missed).map_err(|e| SceneError::new(&heat, "", e))?;
-    staged.bytes(&heat, &png_bytes).map_err(|e| SceneError::new(&heat, "--out", e))?;
+        profile::cost_png(width, height, costs, missed).map_err(|e| OutputError::new(&heat, "--out", e))?;
+    staged.bytes(&heat, &png_bytes).map_err(|e| OutputError::new(&heat, "--out", e))?;
     Ok(vec![exr, heat])
 }

@@ -4,6 +4,7 @@
 
 pub mod bench;
 pub mod config;
+pub mod error;
 pub mod flags;
 pub mod fonts;
 pub mod frame_files;
@@ -22,8 +23,9 @@ pub mod scene_files;
 pub mod threads;
 pub mod tile;
 
+pub use error::{CliError, OutputError};
 pub use output::exit_cleanly_on_signals;
-pub use render::{CliError, RenderArgs, RenderOutcome, run_render};
+pub use render::{RenderArgs, RenderOutcome, run_render};
 pub use renderer::load::config::MAX_PRIMARY_SAMPLES;
 pub use request::{DEFAULT_SCENE, DEFAULT_SCENE_NAME};
 pub use threads::thread_pool;

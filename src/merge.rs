@@ -3,12 +3,13 @@
 //! aside). Every tile is read and checked before anything is staged, and the outputs are
 //! committed together: a bad set of tiles writes nothing.
 
+use crate::error::{CliError, OutputError};
 use crate::frame_files::{Pixels, stage_images, stage_profile};
 use crate::output::StagedFiles;
 use crate::report::{ProfileTotals, RunReport, TileInfo, TileRun, Timings};
 use crate::tile::PixelDigest;
 use glam::Vec3;
-use renderer::SceneError as CliError;
+
 use renderer::load::config::MAX_PRIMARY_SAMPLES;
 use renderer::util::profile::{PixelCost, Work};
 use renderer::{FrameTally, SceneError};
@@ -49,10 +50,10 @@ pub fn run_merge(args: &MergeArgs) -> Result<RunReport, CliError> {
     let t0 = std::time::Instant::now();
     let png = &args.out;
     if png.extension().and_then(|e| e.to_str()) != Some("png") {
-        return Err(SceneError::new(png, "--out", "must name a .png file"));
+        return Err(SceneError::new(png, "--out", "must name a .png file").into());
     }
     crate::output::check_writable_folder(png.parent().unwrap_or(Path::new("")))
-        .map_err(|e| SceneError::new(png, "--out", e))?;
+        .map_err(|e| OutputError::new(png, "--out", e))?;
     let mut tiles = args.tiles.iter().map(|p| read_tile(p)).collect::<Result<Vec<_>, _>>()?;
     check_tiles(&tiles)?;
     tiles.sort_by_key(|t| t.info.index);
@@ -62,7 +63,8 @@ pub fn run_merge(args: &MergeArgs) -> Result<RunReport, CliError> {
             png,
             "--out",
             format!("would overwrite the tile report {}", t.json.display()),
-        ));
+        )
+        .into());
     }
     let pixels = assemble(&tiles)?;
 
@@ -77,7 +79,7 @@ pub fn run_merge(args: &MergeArgs) -> Result<RunReport, CliError> {
     outputs.push(json_path.clone());
     let report = merged_report(&tiles, &outputs, t0.elapsed().as_secs_f64());
     let json = serde_json::to_vec_pretty(&report).expect("the report serialises");
-    let io = |e: String| SceneError::new(png, "--out", e);
+    let io = |e: String| OutputError::new(png, "--out", e);
     staged.bytes(&json_path, &json).map_err(io)?;
     staged.commit().map_err(io)?;
     Ok(report)
@@ -88,7 +90,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 }
 
 /// Reads a tile's report.
-fn read_tile(json: &Path) -> Result<Tile, CliError> {
+fn read_tile(json: &Path) -> Result<Tile, SceneError> {
     let bytes = std::fs::read(json).map_err(|e| SceneError::new(json, "", format!("cannot read: {e}")))?;
     let report: RunReport = serde_json::from_slice(&bytes)
         .map_err(|e| SceneError::new(json, "", format!("not a tile report (truncated?): {e}")))?;
@@ -104,7 +106,7 @@ fn read_tile(json: &Path) -> Result<Tile, CliError> {
 
 /// Every tile of one frame, each once: the same scene and settings (the fields a user can
 /// read first, then the fingerprint of the files behind them), no tile missing or given twice.
-fn check_tiles(tiles: &[Tile]) -> Result<(), CliError> {
+fn check_tiles(tiles: &[Tile]) -> Result<(), SceneError> {
     let first = &tiles[0];
     let expected = identity(first);
     let n = first.info.count;
@@ -176,7 +178,7 @@ fn check_tiles(tiles: &[Tile]) -> Result<(), CliError> {
 
 /// Whether `t` prepared as `first` did: the same prepare counters and warnings, and query
 /// counters not below them (every tile's `prepare` sees the same frame).
-fn prepared_alike(t: &Tile, first: &Tile) -> Result<(), CliError> {
+fn prepared_alike(t: &Tile, first: &Tile) -> Result<(), SceneError> {
     let below = t.info.prepare_counters.iter().find(|(k, v)| t.report.counters.get(*k).is_none_or(|c| c < v));
     if let Some((name, _)) = below {
         return Err(SceneError::new(&t.json, format!("counters.{name}"), "below its value after prepare"));
@@ -223,7 +225,7 @@ fn identity(t: &Tile) -> [(&'static str, String); 14] {
 }
 
 /// Reads every tile's pixels (sorted by index) into the frame's buffers.
-fn assemble(tiles: &[Tile]) -> Result<Assembled, CliError> {
+fn assemble(tiles: &[Tile]) -> Result<Assembled, SceneError> {
     let (first, lights) = (&tiles[0], tiles[0].report.lights);
     let pixels = first.report.width as usize * first.report.height as usize;
     let mut out = Assembled {
@@ -281,7 +283,7 @@ fn assemble(tiles: &[Tile]) -> Result<Assembled, CliError> {
 }
 
 /// The named channels of `path`'s first layer, which must be `size` pixels.
-fn read_channels(path: &Path, size: (usize, usize), names: &[&str]) -> Result<Vec<Channel>, CliError> {
+fn read_channels(path: &Path, size: (usize, usize), names: &[&str]) -> Result<Vec<Channel>, SceneError> {
     use exr::prelude::{FlatSamples, read_all_flat_layers_from_file};
     let bad = |e: String| SceneError::new(path, "", e);
     let image = read_all_flat_layers_from_file(path)

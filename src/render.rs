@@ -3,6 +3,7 @@
 //! profile, the run report) staged and written together, or nothing.
 
 use crate::config::ShadowsConfig;
+use crate::error::{CliError, OutputError};
 use crate::frame_files::{Pixels, missed_pixels, stage_images, stage_profile};
 use crate::output::StagedFiles;
 use crate::progress::PhaseProgress;
@@ -90,9 +91,6 @@ pub struct RenderOutcome {
     pub png: PathBuf,
 }
 
-/// An error for the CLI to print on one line (exit status 2).
-pub type CliError = SceneError;
-
 /// Loads, renders and writes everything `args` asks for. Nothing is written unless all of
 /// it succeeds.
 pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
@@ -141,7 +139,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     progress.finish();
     let (scene, frame, mut staged, mut outputs, loaded, t_write) = outcome?;
     drop(pool);
-    let io = |e: String| SceneError::new(&plan.png, "--out", e);
+    let io = |e: String| OutputError::new(&plan.png, "--out", e);
     // The trace ends here (every span closed) and is staged with the rest: part of `write`.
     if let Some(trace) = trace {
         let path = plan.png.with_extension("trace.json");
@@ -245,12 +243,12 @@ fn png_path(args: &RenderArgs, scene_path: &Path) -> Result<PathBuf, CliError> {
         }
     };
     if png.extension().and_then(|e| e.to_str()) != Some("png") {
-        return Err(SceneError::new(&png, "--out", "must name a .png file"));
+        return Err(SceneError::new(&png, "--out", "must name a .png file").into());
     }
     // Before the render, not after it (the files themselves are still written all or
     // nothing, at the end).
     let folder = png.parent().unwrap_or(Path::new(""));
-    crate::output::check_writable_folder(folder).map_err(|e| SceneError::new(&png, "--out", e))?;
+    crate::output::check_writable_folder(folder).map_err(|e| OutputError::new(&png, "--out", e))?;
     Ok(png)
 }
 
@@ -276,7 +274,7 @@ fn render_frame(
     };
     let rows = plan.tile.as_ref().map_or(0..plan.height, |(t, _)| t.rows(plan.height));
     renderer::render_rows(scene, &mut methods, &settings, rows, &|p| progress.report(p))
-        .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))
+        .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()).into())
 }
 
 /// The run's report; `outputs` lists every file written (the report last), `t_total` is

@@ -9,6 +9,7 @@
 //! heat map marks misses) and `PATH.trace.json`, and its report `PATH.json`. No PNG: 8-bit
 //! sRGB would lose what the merge needs.
 
+use crate::error::{CliError, OutputError};
 use crate::output::StagedFiles;
 use glam::Vec3;
 use renderer::{Frame, SceneError, SceneFile};
@@ -82,7 +83,7 @@ pub struct FingerprintInputs<'a> {
 /// tile count, AOVs) and the program's version. Threads are left out: they change no byte.
 /// Std's SipHash: stable within one build, which is what one farm's tiles share; tiles of
 /// two builds may refuse to merge, the safe side.
-pub fn fingerprint(f: &FingerprintInputs) -> Result<String, SceneError> {
+pub fn fingerprint(f: &FingerprintInputs) -> Result<String, CliError> {
     let mut h = DefaultHasher::new();
     let mut write = |bytes: &[u8]| {
         // Length-prefixed, so that no two lists of inputs hash the same bytes.
@@ -159,14 +160,14 @@ pub fn stage_tile_images(
     frame: &Frame,
     aov: bool,
     staged: &mut StagedFiles,
-) -> Result<Vec<PathBuf>, SceneError> {
+) -> Result<Vec<PathBuf>, CliError> {
     let (width, rows) = (frame.width, frame.rows.len() as u32);
     let exr = png.with_extension("exr");
     crate::output::check_finite(&frame.radiance).map_err(|e| {
-        SceneError::new(&exr, "", format!("the radiance overflowed f32 (lights too bright?): {e}"))
+        OutputError::new(&exr, "--out", format!("the radiance overflowed f32 (lights too bright?): {e}"))
     })?;
     crate::frame_files::create_output_folder(png)?;
-    let io = |e: String| SceneError::new(png, "--out", e);
+    let io = |e: String| OutputError::new(png, "--out", e);
     staged.exr(&exr, width, rows, &frame.radiance).map_err(io)?;
     let mut outputs = vec![exr];
     if aov {

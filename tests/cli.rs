@@ -504,3 +504,34 @@ fn flags_are_checked_with_the_scene_file_as_one_request() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Each kind of failure is its own error: an output that cannot be written names the path and
+/// the flag that chose it (an `OutputError`), bad input the file and the key (a `SceneError`).
+#[test]
+fn an_unwritable_output_is_an_output_error_and_bad_input_a_scene_error() {
+    use penumbra::{CliError, RenderArgs, run_render};
+    let dir = temp_dir("error_kinds");
+    std::fs::write(dir.join("ok.toml"), SCENE).unwrap();
+    std::fs::write(dir.join("bad.toml"), SCENE.replace("width = 48", "width = 0")).unwrap();
+    std::fs::write(dir.join("a_file"), "").unwrap();
+    let args = |scene: &str, out: &str| RenderArgs {
+        scene: Some(dir.join(scene)),
+        out: Some(dir.join(out)),
+        quiet: true,
+        ..Default::default()
+    };
+    match run_render(&args("ok.toml", "a_file/o.png")) {
+        Err(CliError::Output(e)) => {
+            assert_eq!((e.path, e.flag), (dir.join("a_file/o.png"), "--out"));
+        }
+        other => panic!("{other:?}"),
+    }
+    match run_render(&args("bad.toml", "o.png")) {
+        Err(CliError::Input(e)) => {
+            assert_eq!((e.file, e.key.as_str()), (dir.join("bad.toml"), "image.width"))
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(!dir.join("o.png").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -30,9 +30,9 @@ pub mod truth;
 pub use report::{Row, SceneResult, Speedup};
 pub use sweep::{Setting, sweep};
 
+use crate::error::{CliError, OutputError};
 use crate::methods::{METHODS, Registered};
 use crate::output::StagedFiles;
-use renderer::SceneError;
 use std::path::{Path, PathBuf};
 
 /// `penumbra bench` options.
@@ -107,12 +107,12 @@ pub const QUICK_TRUTH_SAMPLES: u32 = 256;
 
 /// Runs the bench on every registered method. Progress lines go to stderr unless `--quiet`;
 /// the summary is returned.
-pub fn run_bench(args: &BenchArgs) -> Result<String, SceneError> {
+pub fn run_bench(args: &BenchArgs) -> Result<String, CliError> {
     run_bench_in(args, METHODS)
 }
 
 /// [`run_bench`] with the methods of `methods`: their sweeps, their plot colours.
-pub fn run_bench_in(args: &BenchArgs, methods: &[Registered]) -> Result<String, SceneError> {
+pub fn run_bench_in(args: &BenchArgs, methods: &[Registered]) -> Result<String, CliError> {
     let out = args.out_dir();
     let (threads, pool) = crate::threads::thread_pool(args.threads, &out)?;
     let plan = scene::Plan {
@@ -132,13 +132,13 @@ pub fn run_bench_in(args: &BenchArgs, methods: &[Registered]) -> Result<String, 
     // A bad budget variable, or a folder the reports cannot be written in, is refused
     // before any scene is benched (the reports are written at the end).
     crate::memory::budget_override()?;
-    crate::output::check_writable_folder(&out).map_err(|e| SceneError::new(&out, "--out", e))?;
+    crate::output::check_writable_folder(&out).map_err(|e| OutputError::new(&out, "--out", e))?;
     std::fs::create_dir_all(&out)
-        .map_err(|e| SceneError::new(&out, "--out", format!("cannot create the folder: {e}")))?;
+        .map_err(|e| OutputError::new(&out, "--out", format!("cannot create the folder: {e}")))?;
 
     let mut staged = StagedFiles::default();
     let mut results = Vec::new();
-    pool.install(|| -> Result<(), SceneError> {
+    pool.install(|| -> Result<(), CliError> {
         for (path, file, stem) in &scenes {
             results.push(scene::bench_scene(&plan, path, file, stem, &mut staged)?);
         }
@@ -157,13 +157,13 @@ fn write_reports(
     repeats: u32,
     results: &[SceneResult],
     mut staged: StagedFiles,
-) -> Result<(), SceneError> {
-    let io = |e: String| SceneError::new(out, "--out", e);
+) -> Result<(), CliError> {
+    let io = |e: String| OutputError::new(out, "--out", e);
     staged.bytes(&out.join("results.csv"), report::csv(results).as_bytes()).map_err(io)?;
     let json = report::json(args, threads, repeats, results);
     staged
         .bytes(&out.join("results.json"), &serde_json::to_vec_pretty(&json).expect("serialises"))
         .map_err(io)?;
     staged.bytes(&out.join("index.html"), html::html(threads, repeats, results).as_bytes()).map_err(io)?;
-    staged.commit().map_err(io)
+    Ok(staged.commit().map_err(io)?)
 }

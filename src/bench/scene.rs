@@ -6,6 +6,7 @@ use super::run::{Run, median, run_setting};
 use super::sweep::{Setting, no_costlier, none_setting};
 use super::truth::Truth;
 use super::{BENCH_WIDTH, BenchArgs, QUICK_WIDTH, cost, figures, metrics, plot, truth};
+use crate::error::{CliError, OutputError};
 use crate::methods::Registered;
 use crate::output::StagedFiles;
 use crate::request::{Overrides, Request};
@@ -108,7 +109,7 @@ pub(super) fn bench_scene(
     file: &SceneFile,
     stem: &str,
     staged: &mut StagedFiles,
-) -> Result<SceneResult, SceneError> {
+) -> Result<SceneResult, CliError> {
     let (args, out) = (plan.args, plan.out);
     let scene = Scene::load(file, path)?;
     let (width, height) = bench_size(args, file.image.width, file.image.height);
@@ -124,7 +125,7 @@ pub(super) fn bench_scene(
     };
     let scene_dir = out.join(stem);
     std::fs::create_dir_all(&scene_dir)
-        .map_err(|e| SceneError::new(&scene_dir, "--out", format!("cannot create the folder: {e}")))?;
+        .map_err(|e| OutputError::new(&scene_dir, "--out", format!("cannot create the folder: {e}")))?;
     plan.log(format!("{}: {} triangles, {width}x{height}", path.display(), scene.stats.triangles));
 
     let none = run_setting(&scene, &none_setting(), &settings, plan.repeats, args.max_run_seconds)
@@ -145,7 +146,7 @@ pub(super) fn bench_scene(
     let base = Baseline { stem, scene: &scene, settings, reach: &reach, none_total, fixed, truth: &truth };
     let Swept { rows, best, skipped } = sweep_scene(plan, &base);
 
-    let io = |e: String| SceneError::new(out, "--out", e);
+    let io = |e: String| OutputError::new(out, "--out", e);
     // Each family's best setting once more, profiled: its cost heat map and split.
     let best = profile_best(plan, &base, &rows, best).map_err(|e| SceneError::new(path, "bench", e))?;
     // Images: the truth, and each family's best setting with its error and cost heat maps.

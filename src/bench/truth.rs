@@ -11,6 +11,7 @@
 //! Code is not in the key: a change to `traced`, the loader or the frame's conventions must
 //! bump [`TRUTH_VERSION`] (or the cache folder be removed).
 
+use crate::error::{CliError, OutputError};
 use crate::output::StagedFiles;
 use glam::Vec3;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, Traced, TracedParams, render};
@@ -69,7 +70,7 @@ pub fn cache_key(
     file: &SceneFile,
     settings: &RenderSettings,
     samples: u32,
-) -> Result<String, SceneError> {
+) -> Result<String, CliError> {
     let mut h = DefaultHasher::new();
     h.write(TRUTH_VERSION.as_bytes());
     let read =
@@ -125,7 +126,7 @@ pub fn truth(
     scene: &Scene,
     settings: &RenderSettings,
     samples: u32,
-) -> Result<Truth, SceneError> {
+) -> Result<Truth, CliError> {
     let key = cache_key(scene_path, file, settings, samples)?;
     let lights = scene.lights.len();
     let (exr, json, vis) = entry_paths(cache, stem, &key, lights);
@@ -175,8 +176,8 @@ pub fn truth(
     let seconds = (frame.shadow_prepare + frame.render).as_secs_f64();
 
     std::fs::create_dir_all(cache)
-        .map_err(|e| SceneError::new(cache, "--cache", format!("cannot create the folder: {e}")))?;
-    let io = |e: String| SceneError::new(cache, "--cache", e);
+        .map_err(|e| OutputError::new(cache, "--cache", format!("cannot create the folder: {e}")))?;
+    let io = |e: String| OutputError::new(cache, "--cache", e);
     let mut staged = StagedFiles::default();
     staged.exr(&exr, settings.width, settings.height, &frame.radiance).map_err(io)?;
     for (path, v) in vis.iter().zip(&frame.visibility) {

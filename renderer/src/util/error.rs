@@ -1,6 +1,7 @@
-//! One error type for everything a user can get wrong: a scene file, a glTF file, an
-//! output path. Its `Display` is a single line `FILE: KEY: what is wrong`, which is what the
-//! CLI prints before exiting with status 2.
+//! The error for input a user got wrong: a scene file, a glTF file, a value a flag gave for
+//! a scene-file key. Its `Display` is a single line `FILE: KEY: what is wrong`, which is what
+//! the CLI prints before exiting with status 2. (An output the CLI cannot write is its own
+//! kind, `penumbra::OutputError`.)
 
 use std::fmt;
 use std::path::{Path, PathBuf};
