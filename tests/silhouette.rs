@@ -5,37 +5,33 @@
 
 mod common;
 
-use common::checked;
+use common::checked::{self, CheckedMethod, Verdicts};
 use common::gltf_writer::TempDir;
 use common::soups;
 use renderer::{
-    LightShadowing, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery, Traced, TracedParams,
+    KeepInstances, LightShadowing, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery, Traced,
+    TracedParams,
 };
 use shadow_plugin::Silhouette;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
 
-/// `silhouette` wrapped: each query's settled samples checked against traced rays, and its
-/// answer against `traced`'s own (the same samples, weighed: the share of irradiance).
-struct Checked {
+/// `silhouette` checked: each query's settled samples against traced rays, and its answer
+/// against `traced`'s own (the same samples, weighed: the share of irradiance).
+struct Settled {
     inner: Silhouette,
     truth: Traced,
-    settled: AtomicU64,
-    traced: AtomicU64,
-    wrong: AtomicU64,
-    answers_differ: AtomicU64,
 }
 
-impl LightShadowing for Checked {
-    fn name(&self) -> &'static str {
-        "silhouette"
-    }
+impl Verdicts for Settled {
+    const NAME: &'static str = "silhouette";
+    const KINDS: [&'static str; 2] = ["checked_settled", "checked_traced"];
+
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
         self.truth.prepare(ctx)?;
         self.inner.prepare(ctx)
     }
-    fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
+    fn check(&self, scene: &Scene, q: &ShadowQuery) -> [u64; 3] {
         let (mut settled, mut traced, mut wrong) = (0, 0, 0);
         let verdicts = self.inner.verdicts(scene, q);
         let samples: Vec<_> = verdicts.iter().map(|(s, _)| *s).collect();
@@ -49,101 +45,48 @@ impl LightShadowing for Checked {
                 }
             }
         }
-        self.settled.fetch_add(settled, Ordering::Relaxed);
-        self.traced.fetch_add(traced, Ordering::Relaxed);
-        self.wrong.fetch_add(wrong, Ordering::Relaxed);
-        let v = self.inner.visibility(scene, q);
-        if v.to_bits() != self.truth.visibility(scene, q).to_bits() {
-            self.answers_differ.fetch_add(1, Ordering::Relaxed);
-        }
-        v
+        [settled, traced, wrong]
+    }
+    fn answers(&self, scene: &Scene, q: &ShadowQuery) -> (f32, f32) {
+        (self.inner.visibility(scene, q), self.truth.visibility(scene, q))
     }
     fn counters(&self) -> Vec<(&'static str, u64)> {
-        let mut c = self.inner.counters();
-        c.push(("checked_settled", self.settled.load(Ordering::Relaxed)));
-        c.push(("checked_traced", self.traced.load(Ordering::Relaxed)));
-        c.push(("checked_wrong", self.wrong.load(Ordering::Relaxed)));
-        c.push(("answers_differ", self.answers_differ.load(Ordering::Relaxed)));
-        c
+        self.inner.counters()
     }
 }
 
-#[derive(Debug)]
-struct CheckedMethod;
-
-impl ShadowMethod for CheckedMethod {
-    fn name(&self) -> &'static str {
-        "silhouette"
-    }
-    fn max_samples(&self) -> u32 {
-        4096
-    }
-    fn build(&self, samples: u32) -> Box<dyn LightShadowing> {
-        Box::new(Checked {
-            inner: Silhouette::new(samples),
-            truth: Traced::new(TracedParams::CULLED, samples),
-            settled: AtomicU64::new(0),
-            traced: AtomicU64::new(0),
-            wrong: AtomicU64::new(0),
-            answers_differ: AtomicU64::new(0),
-        })
-    }
+/// `silhouette`, checked.
+fn checked_silhouette() -> Arc<dyn ShadowMethod> {
+    CheckedMethod::shared(|samples| Settled {
+        inner: Silhouette::new(samples),
+        truth: Traced::new(TracedParams::CULLED, samples),
+    })
 }
 
-/// (settled samples checked, samples traced by the method, disagreements, answers differing
-/// from tracing every sample, points whose samples under the geometric tangent plane were
-/// counted, alpha-tested triangles counted as opaque, dropped as clear, and left out as
-/// mixed).
-fn check(scene: &Path, width: u32, height: u32, samples: u32) -> [u64; 8] {
-    let got = checked::counters(
-        scene,
-        (width, height, samples),
-        Arc::new(CheckedMethod),
-        "silhouette",
-        [
-            "checked_settled",
-            "checked_traced",
-            "checked_wrong",
-            "answers_differ",
-            "points_counted_below",
-            "triangles_alpha_opaque",
-            "triangles_alpha_clear",
-            "triangles_alpha",
-        ],
-    );
-    eprintln!(
-        "{}: {} settled, {} traced by the method; {} wrong; {} answers differ; {} points counted below; alpha-tested triangles: {} opaque, {} clear, {} mixed",
-        scene.display(),
-        got[0],
-        got[1],
-        got[2],
-        got[3],
-        got[4],
-        got[5],
-        got[6],
-        got[7]
-    );
-    got
-}
-
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// Sums the checks over scenes and asserts none disagrees; returns the sums (see [`check`]).
-fn check_all(scenes: &[PathBuf], width: u32, height: u32, samples: u32) -> [u64; 8] {
-    let total = checked::summed(scenes, |s| check(s, width, height, samples));
-    eprintln!("total: {} settled, {} traced by the method; {} wrong", total[0], total[1], total[2]);
-    assert_eq!(total[2], 0, "samples the counting settled that the BVH disagrees with");
-    assert_eq!(total[3], 0, "answers differing from tracing the same samples");
-    total
+/// Over `scenes` at `dims` (width, height, samples): settled samples checked, samples traced
+/// by the method, disagreements, answers differing from tracing every sample, points whose
+/// samples under the geometric tangent plane were counted, alpha-tested triangles counted as
+/// opaque, dropped as clear, and left out as mixed. Asserts that the BVH agrees with every
+/// settled sample and that every answer equals tracing the same samples.
+fn counts(scenes: &[PathBuf], dims: (u32, u32, u32)) -> [u64; 8] {
+    let keys = [
+        "checked_settled",
+        "checked_traced",
+        "checked_wrong",
+        "answers_differ",
+        "points_counted_below",
+        "triangles_alpha_opaque",
+        "triangles_alpha_clear",
+        "triangles_alpha",
+    ];
+    checked::check_all(scenes, dims, &checked_silhouette(), "silhouette", keys, None)
 }
 
 /// The default scene: the visibility equals `traced`'s with the same samples, bit for bit, at
 /// every pixel.
 #[test]
 fn default_scene_equals_tracing_the_same_samples() {
-    let settled = check_all(&[root().join("scenes/default.toml")], 160, 120, 256)[0];
+    let settled = counts(&[checked::scene("scenes/default.toml")], (160, 120, 256))[0];
     assert!(settled > 200_000, "only {settled} settled samples checked");
 }
 
@@ -155,7 +98,7 @@ fn shared_scenes_agree_with_the_bvh() {
         return;
     }
     let scenes = common::shared::gltf_scene_files();
-    let settled = check_all(&scenes, 64, 48, 256)[0];
+    let settled = counts(&scenes, (64, 48, 256))[0];
     assert!(settled > 1_000_000, "only {settled} settled samples checked");
 }
 
@@ -166,10 +109,10 @@ fn points_with_more_edges_than_the_counting_pays_for_are_traced_whole() {
     if !common::shared::scenes_present("silhouette::points_with_more_edges_than_the_counting_pays_for") {
         return;
     }
-    let scene = root().join("scenes/gltf/metal-rough-spheres.toml");
+    let scene = checked::scene("scenes/gltf/metal-rough-spheres.toml");
     let keys = ["answers_differ", "points_fallback_costly", "silhouette_points"];
     let [differ, costly, points] =
-        checked::counters(&scene, (48, 36, 4), Arc::new(CheckedMethod), "costly", keys);
+        checked::counters(&scene, (48, 36, 4), checked_silhouette(), "costly", keys);
     assert_eq!(differ, 0, "answers differing from tracing the same samples");
     assert!(costly > 20 && costly < points, "{costly} of {points} points traced whole");
 }
@@ -184,7 +127,7 @@ fn soups_heightfields_and_stress_meshes_agree_with_the_bvh() {
     let mut scenes = soups::soups_and_terraces(&dir, 17);
     scenes.extend(soups::stress_soups(&dir, 29));
     scenes.extend(soups::smooth_soups(&dir, 31));
-    let [settled, _, _, _, below, ..] = check_all(&scenes, 64, 48, 512);
+    let [settled, _, _, _, below, ..] = counts(&scenes, (64, 48, 512));
     assert!(settled > 6_000_000, "only {settled} settled samples checked");
     assert!(below > 200, "only {below} points counted from below the tangent plane");
 }
@@ -196,7 +139,7 @@ fn soups_heightfields_and_stress_meshes_agree_with_the_bvh() {
 fn instanced_meshes_agree_with_the_bvh() {
     let dir = TempDir::new("silhouette-instances");
     let scenes = soups::instanced_soups(&dir, 43);
-    let [settled, ..] = check_all(&scenes, 64, 48, 512);
+    let [settled, ..] = counts(&scenes, (64, 48, 512));
     assert!(settled > 1_000_000, "only {settled} settled samples checked");
 }
 
@@ -210,7 +153,7 @@ fn kept_instances_agree_with_the_bvh() {
     let dir = TempDir::new("silhouette-kept-instances");
     let mut scenes = soups::instanced_soups(&dir, 43);
     // 400 smooth 5k-triangle boulders, the bench's instanced scene (kept by default).
-    scenes.push(root().join("scenes/stress/boulder-field-400.toml"));
+    scenes.push(checked::scene("scenes/stress/boulder-field-400.toml"));
     let keys = [
         "checked_settled",
         "checked_wrong",
@@ -219,14 +162,9 @@ fn kept_instances_agree_with_the_bvh() {
         "points_fallback_kept_instance",
         "silhouette_points",
     ];
-    let keep = Some(renderer::KeepInstances::Always);
-    let [settled, wrong, differ, counted, uncounted, points] = checked::summed(&scenes, |s| {
-        checked::counters_kept(s, (64, 48, 512), Arc::new(CheckedMethod), "kept", keys, keep)
-    });
-    eprintln!(
-        "kept: {settled} settled, {wrong} wrong, {differ} differ; {counted} instances counted; {uncounted} of {points} points traced whole for an uncounted instance"
-    );
-    assert_eq!((wrong, differ), (0, 0), "disagreements with the BVH, answers differing from tracing");
+    let keep = Some(KeepInstances::Always);
+    let [settled, _, _, counted, uncounted, points] =
+        checked::check_all(&scenes, (64, 48, 512), &checked_silhouette(), "kept", keys, keep);
     assert!(settled > 1_000_000, "only {settled} settled samples checked");
     assert!(counted >= 10, "only {counted} instances counted");
     assert!(uncounted * 20 < points, "{uncounted} of {points} points traced whole");
@@ -243,11 +181,9 @@ fn shared_scenes_with_kept_instances_agree_with_the_bvh() {
     }
     let scenes = common::shared::gltf_scene_files();
     let keys = ["checked_settled", "checked_wrong", "answers_differ"];
-    let keep = Some(renderer::KeepInstances::Always);
-    let [settled, wrong, differ] = checked::summed(&scenes, |s| {
-        checked::counters_kept(s, (64, 48, 256), Arc::new(CheckedMethod), "kept-shared", keys, keep)
-    });
-    assert_eq!((wrong, differ), (0, 0), "disagreements with the BVH, answers differing from tracing");
+    let keep = Some(KeepInstances::Always);
+    let [settled, ..] =
+        checked::check_all(&scenes, (64, 48, 256), &checked_silhouette(), "kept-shared", keys, keep);
     assert!(settled > 500_000, "only {settled} settled samples checked");
 }
 
@@ -259,7 +195,7 @@ fn shared_scenes_with_kept_instances_agree_with_the_bvh() {
 fn alpha_masked_soups_agree_with_the_bvh() {
     let dir = TempDir::new("silhouette-alpha-soups");
     let scenes = soups::alpha_soups(&dir, 41);
-    let [settled, _, _, _, _, opaque, clear, mixed] = check_all(&scenes, 64, 48, 512);
+    let [settled, _, _, _, _, opaque, clear, mixed] = counts(&scenes, (64, 48, 512));
     assert!(settled > 2_000_000, "only {settled} settled samples checked");
     assert!(
         opaque > 100 && clear > 100 && mixed > 100,
@@ -273,7 +209,7 @@ fn alpha_masked_soups_agree_with_the_bvh() {
 #[test]
 #[ignore]
 fn glass_vase_flowers_at_bench_size_agrees_with_the_bvh() {
-    check_all(&[root().join("scenes/bench/glass-vase-flowers.toml")], 320, 240, 1024);
+    counts(&[checked::scene("scenes/bench/glass-vase-flowers.toml")], (320, 240, 1024));
 }
 
 /// sauerbraten-zdm2 through the path tracer's vertices (160x120, N = 1024: 49 M settled
@@ -282,5 +218,5 @@ fn glass_vase_flowers_at_bench_size_agrees_with_the_bvh() {
 #[test]
 #[ignore]
 fn sauerbraten_zdm2_paths_agree_with_the_bvh() {
-    check_all(&[root().join("scenes/bench/sauerbraten-zdm2.toml")], 160, 120, 1024);
+    counts(&[checked::scene("scenes/bench/sauerbraten-zdm2.toml")], (160, 120, 1024));
 }
