@@ -264,22 +264,6 @@ impl Scene {
         })
     }
 
-    /// An error for `method` if this scene keeps instances unflattened: a method that reads
-    /// the triangle arrays (its own structures over them) would miss those instances.
-    pub fn require_flattened(&self, method: &'static str) -> Result<(), crate::ShadowError> {
-        match &self.instanced {
-            None => Ok(()),
-            Some(inst) => Err(crate::ShadowError {
-                method,
-                message: format!(
-                    "the scene keeps {} instances unflattened (it does not fit in memory flattened); \
-                     this method needs its triangles flattened: use `traced`",
-                    inst.placed.len()
-                ),
-            }),
-        }
-    }
-
     /// The render-space triangle a hit lies on.
     pub fn hit_triangle(&self, hit: &SurfaceHit) -> Triangle {
         match (hit.kept, &self.instanced) {

@@ -28,6 +28,23 @@ pub struct PrepareContext<'a> {
     pub memory_budget_bytes: u64,
 }
 
+impl PrepareContext<'_> {
+    /// An error for `method` if the scene keeps instances unflattened: a method that reads
+    /// the triangle arrays (its own structures over them) would miss those instances.
+    pub fn require_flattened(&self, method: &'static str) -> Result<(), ShadowError> {
+        match self.scene.kept_instances() {
+            0 => Ok(()),
+            kept => Err(ShadowError {
+                method,
+                message: format!(
+                    "the scene keeps {kept} instances unflattened (it does not fit in memory flattened); \
+                     this method needs its triangles flattened: use `traced`"
+                ),
+            }),
+        }
+    }
+}
+
 /// One visibility question: the fraction of the light (its part above the tangent plane of
 /// `point.n_shading`) that `point.p` sees unoccluded.
 #[derive(Debug, Clone, Copy, PartialEq)]

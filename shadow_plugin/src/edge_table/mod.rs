@@ -417,7 +417,7 @@ impl LightShadowing for EdgeTable {
     }
 
     fn prepare(&mut self, ctx: &PrepareContext) -> Result<(), ShadowError> {
-        ctx.scene.require_flattened(self.name())?;
+        ctx.require_flattened(self.name())?;
         self.state = None;
         self.warning = None;
         // The map's peak is known from its size alone, the masks' from a coarse map: both
