@@ -3,7 +3,7 @@
 //!
 //! - `mask_build/{small,large}/{256,1024}`: one `Mask::build`, i.e. one mask for one sub-pixel
 //!   offset (0.375, 0.625), depth (a floor 2.2 below a 0.9 x 0.9 light, as in the default
-//!   scene), set of stratified light samples (`samples::stratified`), pitch and stop height.
+//!   scene), set of stratified light samples (`mask_samples::stratified`), pitch and stop height.
 //!   `small`: a 256^2 map over a +-1.5 field (pitch 0.0118) and an occluder 0.5 above the
 //!   floor: rays cross 5.1 pixels on average, at most 10. `large`: a 512^2 map (the `fine`
 //!   preset, pitch 0.0059) and an occluder 1.0 above the floor: 29 on average, at most 56-58.
@@ -99,12 +99,12 @@
 use criterion::{BatchSize, BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::ray::Ray;
-use renderer::util::sampling::{Rng, stream_seed};
+use renderer::util::random::{Rng, stream_seed};
 use renderer::{LightShadowing, PrepareContext, Scene, SceneFile, ShadingPoint, ShadowQuery};
 use shadow_plugin::depth_map::MapPoint;
 use shadow_plugin::depth_map::bits::{MAX_WORDS, count, words};
 use shadow_plugin::depth_map::march::{for_each_crossing, stop_height};
-use shadow_plugin::depth_map::samples;
+use shadow_plugin::depth_map::mask_samples;
 use shadow_plugin::depth_march::march_bits;
 use shadow_plugin::{DepthMap, EdgeTable, EdgeTableParams, Heightfield, LightFrame, Mask};
 use std::collections::HashSet;
@@ -144,7 +144,7 @@ const REGIONS: [Region; 2] = [
 
 fn light_samples(n: usize) -> Vec<Vec2> {
     let mut s = vec![Vec2::ZERO; n];
-    samples::stratified(&mut s, HALF, &mut Rng::new(stream_seed(&[7, 0, n as u64, 3])));
+    mask_samples::stratified(&mut s, HALF, &mut Rng::new(stream_seed(&[7, 0, n as u64, 3])));
     s
 }
 

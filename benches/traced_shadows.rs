@@ -11,7 +11,7 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use glam::{Vec3, Vec3A};
 use obvhs::{BvhBuildParams, ray::Ray};
 use renderer::geometry::ray_origin::shadow_ray;
-use renderer::util::sampling::{Rng, stream_seed};
+use renderer::util::random::{Rng, stream_seed};
 use renderer::{Scene, SceneFile};
 use std::hint::black_box;
 use std::path::Path;

@@ -1,9 +1,9 @@
 //! The command line's whole-number flags, each parsed against the range the scene file's key
-//! takes, in the same words ([`renderer::load::config::range_message`]): `--width -5`,
+//! takes, in the same words ([`renderer::load::scene_file::range_message`]): `--width -5`,
 //! `--width=-5` and `--width abc` all say "must be in 1..=16384", as `image.width = 0` does.
 //! Negative numbers are taken as values (not as flags), so no error suggests `-- -5`.
 
-use renderer::load::config::range_message;
+use renderer::load::scene_file::range_message;
 use std::ops::RangeInclusive;
 
 /// A parser for a flag taking a whole number in `range`.
@@ -35,7 +35,7 @@ mod tests {
 
     #[test]
     fn a_bad_value_names_the_range_the_scene_file_names() {
-        let side = whole(renderer::load::config::IMAGE_SIDE);
+        let side = whole(renderer::load::scene_file::IMAGE_SIDE);
         assert_eq!(side("640"), Ok(640));
         assert_eq!(side(" 16384"), Ok(16384));
         for bad in ["-5", "0", "16385", "abc", "1e3", "99999999999999999999999", ""] {

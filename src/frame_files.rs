@@ -1,7 +1,7 @@
 //! The frame's files, staged all or nothing: the PNG, the EXR, each light's visibility and
 //! `--profile`'s cost images. What `render`, `render --tile` and `merge` write alike.
 
-use crate::error::{CliError, OutputError};
+use crate::cli_error::{CliError, OutputError};
 use crate::output::StagedFiles;
 use crate::profile;
 use renderer::Frame;
@@ -79,7 +79,7 @@ pub fn missed_pixels(frame: &Frame, pixels: usize) -> Vec<bool> {
 pub fn stage_profile(
     png: &Path,
     [width, height]: [u32; 2],
-    costs: &[renderer::util::profile::PixelCost],
+    costs: &[renderer::util::pixel_cost::PixelCost],
     missed: &[bool],
     staged: &mut StagedFiles,
 ) -> Result<Vec<PathBuf>, CliError> {

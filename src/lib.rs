@@ -3,8 +3,7 @@
 //! ([`render`]), `merge` ([`merge`]) and `bench` ([`bench`]).
 
 pub mod bench;
-pub mod config;
-pub mod error;
+pub mod cli_error;
 pub mod flags;
 pub mod fonts;
 pub mod frame_files;
@@ -17,15 +16,16 @@ pub mod output;
 pub mod profile;
 pub mod progress;
 pub mod render;
-pub mod report;
 pub mod request;
+pub mod run_report;
 pub mod scene_files;
+pub mod shadows_config;
 pub mod threads;
 pub mod tile;
 
-pub use error::{CliError, OutputError};
+pub use cli_error::{CliError, OutputError};
 pub use output::exit_cleanly_on_signals;
 pub use render::{RenderArgs, RenderOutcome, run_render};
-pub use renderer::load::config::MAX_PRIMARY_SAMPLES;
+pub use renderer::load::scene_file::MAX_PRIMARY_SAMPLES;
 pub use request::{DEFAULT_SCENE, DEFAULT_SCENE_NAME};
 pub use threads::thread_pool;

@@ -3,15 +3,15 @@
 //! aside). Every tile is read and checked before anything is staged, and the outputs are
 //! committed together: a bad set of tiles writes nothing.
 
-use crate::error::{CliError, OutputError};
+use crate::cli_error::{CliError, OutputError};
 use crate::frame_files::{Pixels, stage_images, stage_profile};
 use crate::output::StagedFiles;
-use crate::report::{ProfileTotals, RunReport, TileInfo, TileRun, Timings};
+use crate::run_report::{ProfileTotals, RunReport, TileInfo, TileRun, Timings};
 use crate::tile::PixelDigest;
 use glam::Vec3;
 
-use renderer::load::config::MAX_PRIMARY_SAMPLES;
-use renderer::util::profile::{PixelCost, Work};
+use renderer::load::scene_file::MAX_PRIMARY_SAMPLES;
+use renderer::util::pixel_cost::{PixelCost, Work};
 use renderer::{FrameTally, SceneError};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -111,7 +111,7 @@ fn check_tiles(tiles: &[Tile]) -> Result<(), SceneError> {
     let expected = identity(first);
     let n = first.info.count;
     // Hand-edited or corrupt numbers are errors, not allocations or divisions by zero.
-    let side = renderer::load::config::MAX_IMAGE_SIDE;
+    let side = renderer::load::scene_file::MAX_IMAGE_SIDE;
     for (key, v, max) in [
         ("width", first.report.width, side),
         ("height", first.report.height, side),

@@ -2,7 +2,7 @@
 //! every crate through `tracing-chrome`), the per-pixel cost EXR and its heat map.
 
 use crate::heat;
-use renderer::util::profile::PixelCost;
+use renderer::util::pixel_cost::PixelCost;
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 use tracing_chrome::{ChromeLayerBuilder, FlushGuard};

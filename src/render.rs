@@ -2,15 +2,15 @@
 //! the frame rendered with one plugin per light, and every output (PNG, EXR, AOVs, the
 //! profile, the run report) staged and written together, or nothing.
 
-use crate::config::ShadowsConfig;
-use crate::error::{CliError, OutputError};
+use crate::cli_error::{CliError, OutputError};
 use crate::frame_files::{Pixels, missed_pixels, stage_images, stage_profile};
 use crate::output::StagedFiles;
 use crate::progress::PhaseProgress;
-use crate::report::{RunReport, Timings};
 use crate::request::{Overrides, Request};
+use crate::run_report::{RunReport, Timings};
+use crate::shadows_config::ShadowsConfig;
 use crate::threads::thread_pool_traced;
-use crate::{flags, memory, methods, profile, report, tile};
+use crate::{flags, memory, methods, profile, run_report, tile};
 use renderer::{
     Frame, KeepInstances, LoadOptions, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod,
 };
@@ -29,16 +29,16 @@ pub struct RenderArgs {
     /// Light samples per shading point; overrides `[shadows].samples` (each method's own
     /// limit: 65536 for `traced`).
     #[arg(long, allow_negative_numbers = true,
-          value_parser = flags::whole(1..=renderer::methods::light_samples::MAX_TRACED_SAMPLES))]
+          value_parser = flags::whole(1..=renderer::methods::sample_stream::MAX_TRACED_SAMPLES))]
     pub samples: Option<u32>,
     /// Image width in pixels, 1..=16384; overrides `[image].width`.
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::config::IMAGE_SIDE))]
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::scene_file::IMAGE_SIDE))]
     pub width: Option<u32>,
     /// Image height in pixels, 1..=16384; overrides `[image].height`.
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::config::IMAGE_SIDE))]
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::scene_file::IMAGE_SIDE))]
     pub height: Option<u32>,
     /// Primary samples per pixel, 1..=4096 (1 = the pixel centre); overrides `[image].spp`.
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::config::SPP))]
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::scene_file::SPP))]
     pub spp: Option<u32>,
     /// Longest light path, counted as Mitsuba 3 counts it, 2..=64: 2 = direct light only, 5 =
     /// three indirect bounces; overrides `[integrator].max_depth` (default: the scene file's,
@@ -315,7 +315,7 @@ fn build_report(
             write: phases.write.as_secs_f64(),
             total: phases.total.as_secs_f64(),
         },
-        profile: frame.costs.as_deref().map(|c| report::ProfileTotals::of(c, &frame.vertex_queries)),
+        profile: frame.costs.as_deref().map(|c| run_report::ProfileTotals::of(c, &frame.vertex_queries)),
         counters: frame.counters.clone(),
         outputs: outputs.iter().map(|p| p.display().to_string()).collect(),
         warnings: scene.warnings.iter().chain(&frame.warnings).cloned().collect(),

@@ -1,10 +1,10 @@
 //! One render request: the scene file with the command line's overrides merged into its
 //! table, typed and checked once ([`SceneFile::parse_with`], then `[shadows]` through the
-//! registry). Every range is the scene file's (`renderer::load::config`); an error about a
+//! registry). Every range is the scene file's (`renderer::load::scene_file`); an error about a
 //! value a flag gave names the flag. After this, nothing downstream checks a setting again.
 
-use crate::config::ShadowsConfig;
-use renderer::load::config::Override;
+use crate::shadows_config::ShadowsConfig;
+use renderer::load::scene_file::Override;
 use renderer::{SceneError, SceneFile};
 use std::path::{Path, PathBuf};
 

@@ -9,7 +9,7 @@
 //! heat map marks misses) and `PATH.trace.json`, and its report `PATH.json`. No PNG: 8-bit
 //! sRGB would lose what the merge needs.
 
-use crate::error::{CliError, OutputError};
+use crate::cli_error::{CliError, OutputError};
 use crate::output::StagedFiles;
 use glam::Vec3;
 use renderer::{Frame, SceneError, SceneFile};
@@ -196,8 +196,8 @@ pub fn tile_info(
     (aov, profile): (bool, bool),
     scene: &renderer::Scene,
     frame: &Frame,
-) -> crate::report::TileInfo {
-    crate::report::TileInfo {
+) -> crate::run_report::TileInfo {
+    crate::run_report::TileInfo {
         index: spec.index,
         count: spec.count,
         rows: [frame.rows.start, frame.rows.end],

@@ -529,16 +529,7 @@ fn a_nearest_sampler_is_honoured_by_the_alpha_test() {
 /// normal +Y).
 fn floor_visibility(scene: &Scene, points: &[DVec3]) -> Vec<f32> {
     let mut traced = Traced::new(TracedParams::PLAIN, 64);
-    traced
-        .prepare(&PrepareContext {
-            scene,
-            light: &scene.lights[0],
-            light_index: 0,
-            visible: &[],
-            seed: 0,
-            memory_budget_bytes: u64::MAX,
-        })
-        .expect("prepare");
+    traced.prepare(&PrepareContext::for_light(scene, 0)).expect("prepare");
     points
         .iter()
         .enumerate()

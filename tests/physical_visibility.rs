@@ -54,14 +54,7 @@ fn scene(h: f64) -> Scene {
 
 fn prepared(scene: &Scene) -> Traced {
     let mut t = Traced::new(TracedParams::CULLED, SAMPLES);
-    let ctx = PrepareContext {
-        scene,
-        light: &scene.lights[0],
-        light_index: 0,
-        visible: &[],
-        seed: 0,
-        memory_budget_bytes: u64::MAX,
-    };
+    let ctx = PrepareContext::for_light(scene, 0);
     t.prepare(&ctx).unwrap();
     t
 }

@@ -5,7 +5,7 @@
 #[path = "common/folders.rs"]
 mod folders;
 use folders::temp_dir;
-use renderer::util::profile::PixelCost;
+use renderer::util::pixel_cost::PixelCost;
 use serde_json::Value;
 use std::collections::HashMap;
 
@@ -138,7 +138,7 @@ fn penumbra_over_lit(method: &str) -> (f64, usize, usize) {
     let scene =
         renderer::SceneFile::parse(penumbra::DEFAULT_SCENE, std::path::Path::new("default.toml")).unwrap();
     let scene = renderer::Scene::load(&scene, std::path::Path::new("default.toml")).unwrap();
-    let config = penumbra::config::ShadowsConfig::from_table(
+    let config = penumbra::shadows_config::ShadowsConfig::from_table(
         &toml::from_str(&format!("method = \"{method}\"\nsamples = 256")).unwrap(),
         std::path::Path::new("default.toml"),
     )

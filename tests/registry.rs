@@ -8,9 +8,9 @@ use bench_entry::top_samples;
 use bench_entry::{BenchEntry, SweepSetting};
 use penumbra::bench::plot::{Style, style};
 use penumbra::bench::{BenchArgs, run_bench_in, sweep};
-use penumbra::config::ShadowsConfig;
 use penumbra::key_reference::{page, section_errors, sections};
 use penumbra::methods::{METHODS, Registered, find, names, retired, value_parser_of};
+use penumbra::shadows_config::ShadowsConfig;
 use renderer::{
     KeyError, LightShadowing, MethodEntry, MethodParams, PrepareContext, Scene, SceneError, ShadowError,
     ShadowMethod, ShadowQuery,

@@ -2,9 +2,9 @@
 //! (docs/scene-keys.md), unknown and inapplicable keys rejected with their full path,
 //! presets, and the code-only switches kept out of the scene file.
 
-use penumbra::config::ShadowsConfig;
 use penumbra::key_reference;
 use penumbra::methods::METHODS;
+use penumbra::shadows_config::ShadowsConfig;
 use renderer::interface::method::default_table;
 use renderer::{MethodEntry, MethodParams, SceneError, TracedParams, parse_method};
 use shadow_plugin::{

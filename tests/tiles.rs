@@ -10,7 +10,7 @@ use folders::temp_dir;
 mod tiny_scene;
 
 use penumbra::merge::{MergeArgs, run_merge};
-use penumbra::report::RunReport;
+use penumbra::run_report::RunReport;
 use penumbra::tile::TileSpec;
 use penumbra::{RenderArgs, run_render};
 use std::path::{Path, PathBuf};

@@ -1,13 +1,13 @@
 //! Random numbers: the renderer's SplitMix64 stream and strata, with f64 draws on top.
 
-pub use renderer::util::sampling::{mix64, strata};
+pub use renderer::util::random::{mix64, strata};
 
 /// The renderer's stream, its seed mixed first (seeds here are small consecutive integers).
-pub struct Rng(renderer::util::sampling::Rng);
+pub struct Rng(renderer::util::random::Rng);
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Self(renderer::util::sampling::Rng::new(mix64(seed)))
+        Self(renderer::util::random::Rng::new(mix64(seed)))
     }
 
     /// Uniform in [0, 1), 53 bits.

@@ -5,7 +5,7 @@
 //! Every input must end in [`Outcome::Loaded`] or [`Outcome::Refused`]: a panic, an abort,
 //! a hang or an out-of-memory is a finding.
 
-use penumbra::config::ShadowsConfig;
+use penumbra::shadows_config::ShadowsConfig;
 use renderer::{Scene, SceneError, SceneFile};
 use std::path::{Path, PathBuf};
 

@@ -22,7 +22,7 @@ pub use integrator::tally::FrameTally;
 pub use interface::entry::MethodEntry;
 pub use interface::method::{KeyError, MethodParams, ShadowMethod, parse_method};
 pub use interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
-pub use load::config::SceneFile;
+pub use load::scene_file::SceneFile;
 pub use load::scene_load::{KeepInstances, LoadOptions};
 pub use methods::traced::{MAX_TRACED_SAMPLES, Traced, TracedParams, Unshadowed};
 pub use util::error::SceneError;

@@ -10,7 +10,7 @@
 //! through pixel corners. A hand-built scene checks the oracle itself against geometry.
 
 use glam::{Vec2, Vec3};
-use renderer::util::sampling::Rng;
+use renderer::util::random::Rng;
 use shadow_plugin::depth_map::bits::{MAX_WORDS, count, fill_first, words};
 use shadow_plugin::depth_map::march::{floor_height, for_each_crossing, stop_height};
 use shadow_plugin::depth_map::{DepthMap, LightFrame, MapPoint};

@@ -10,7 +10,7 @@
 //! is "the rest". Timing each ray instead would cost about as much as a short ray.
 
 use super::sweep::Setting;
-use renderer::util::profile::PixelCost;
+use renderer::util::pixel_cost::PixelCost;
 use renderer::{RenderSettings, Scene, render};
 
 /// A method's shadow cost split (seconds, summing to the shadow cost).
@@ -55,7 +55,7 @@ pub fn split(costs: &[PixelCost], shadow_cost: f64, prepare: f64, threads: usize
     let prepare = prepare.clamp(0.0, shadow_cost.max(0.0));
     let shading = (shadow_cost - prepare).max(0.0);
     let unit = fit(costs);
-    let work = renderer::util::profile::totals(costs).1;
+    let work = renderer::util::pixel_cost::totals(costs).1;
     let wall = 1.0 / threads.max(1) as f64;
     let mut parts = [unit[1] * work.rays as f64, unit[2] * work.shafts as f64, unit[3] * work.lookups as f64]
         .map(|e| e * wall);
@@ -148,7 +148,7 @@ fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use renderer::util::profile::Work;
+    use renderer::util::pixel_cost::Work;
 
     fn pixel(time_s: f32, rays: u64, shafts: u64, lookups: u64) -> PixelCost {
         PixelCost { time_s, work: Work { rays, shafts, lookups, fallbacks: 0 } }

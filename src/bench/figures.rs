@@ -8,7 +8,7 @@ use super::truth::Truth;
 use crate::heat;
 use crate::output::StagedFiles;
 use glam::Vec3;
-use renderer::util::profile::PixelCost;
+use renderer::util::pixel_cost::PixelCost;
 use renderer::{Frame, RenderSettings};
 use std::path::Path;
 

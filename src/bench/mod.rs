@@ -30,7 +30,7 @@ pub mod truth;
 pub use report::{Row, SceneResult, Speedup};
 pub use sweep::{Setting, sweep};
 
-use crate::error::{CliError, OutputError};
+use crate::cli_error::{CliError, OutputError};
 use crate::methods::{METHODS, Registered};
 use crate::output::StagedFiles;
 use std::path::{Path, PathBuf};
@@ -55,10 +55,10 @@ pub struct BenchArgs {
     #[arg(long)]
     pub cache: Option<PathBuf>,
     /// Image width; default: the scene's, scaled down to at most 320 (keeping its aspect).
-    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::whole(renderer::load::config::IMAGE_SIDE))]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::whole(renderer::load::scene_file::IMAGE_SIDE))]
     pub width: Option<u32>,
     /// Image height; default: the scene's, scaled like the width.
-    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::whole(renderer::load::config::IMAGE_SIDE))]
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::whole(renderer::load::scene_file::IMAGE_SIDE))]
     pub height: Option<u32>,
     /// Worker threads (default: all cores).
     #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::whole(1..=1024))]

@@ -6,7 +6,7 @@ use super::run::{Run, median, run_setting};
 use super::sweep::{Setting, no_costlier, none_setting};
 use super::truth::Truth;
 use super::{BENCH_WIDTH, BenchArgs, QUICK_WIDTH, cost, figures, metrics, plot, truth};
-use crate::error::{CliError, OutputError};
+use crate::cli_error::{CliError, OutputError};
 use crate::methods::Registered;
 use crate::output::StagedFiles;
 use crate::request::{Overrides, Request};

@@ -11,7 +11,7 @@
 //! Code is not in the key: a change to `traced`, the loader or the frame's conventions must
 //! bump [`TRUTH_VERSION`] (or the cache folder be removed).
 
-use crate::error::{CliError, OutputError};
+use crate::cli_error::{CliError, OutputError};
 use crate::output::StagedFiles;
 use glam::Vec3;
 use renderer::{Frame, RenderSettings, Scene, SceneError, SceneFile, Traced, TracedParams, render};

@@ -4,7 +4,7 @@
 #![allow(dead_code)] // each test binary uses a different subset
 
 use super::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive, write_png_rgba};
-use renderer::util::sampling::Rng;
+use renderer::util::random::Rng;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 

@@ -246,7 +246,7 @@ mod tests {
         use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
         use crate::load::gltf_load::Geometry;
         use crate::methods::traced::{Traced, TracedParams};
-        use crate::util::sampling::Rng;
+        use crate::util::random::Rng;
         use glam::DVec3;
         let mut rng = Rng::new(41);
         let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
@@ -264,14 +264,7 @@ mod tests {
         let camera = Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0);
         let s = Scene::build(g, vec![light], camera, DVec3::ZERO, std::time::Duration::ZERO);
         let prepared = |mut t: Traced| {
-            let ctx = PrepareContext {
-                scene: &s,
-                light: &s.lights[0],
-                light_index: 0,
-                visible: &[],
-                seed: 0,
-                memory_budget_bytes: u64::MAX,
-            };
+            let ctx = PrepareContext::for_light(&s, 0);
             t.prepare(&ctx).unwrap();
             t
         };

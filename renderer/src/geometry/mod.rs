@@ -3,11 +3,11 @@
 //! and their sampling, materials.
 
 pub mod camera;
+pub mod horizon_warp;
 pub mod instanced;
 pub mod instances;
 pub mod irradiance_strata;
 pub mod light;
-pub mod light_sampling;
 pub mod material;
 pub mod point;
 pub mod precision;

@@ -82,14 +82,7 @@ pub(crate) fn plain_visibility(
 }
 
 fn prepared(scene: &Scene, mut t: Traced) -> Traced {
-    let ctx = PrepareContext {
-        scene,
-        light: &scene.lights[0],
-        light_index: 0,
-        visible: &[],
-        seed: 0,
-        memory_budget_bytes: u64::MAX,
-    };
+    let ctx = PrepareContext::for_light(scene, 0);
     t.prepare(&ctx).unwrap();
     t
 }
@@ -332,7 +325,7 @@ fn measure_false_occlusion() {
     let scenes = std::env::var("PENUMBRA_SCENES").unwrap_or_else(|_| "../scenes/default.toml".into());
     for path in scenes.split(':') {
         let path = std::path::Path::new(path);
-        let file = crate::load::config::SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));
+        let file = crate::load::scene_file::SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));
         let scene = Scene::load(&file, path).unwrap_or_else(|e| panic!("{e}"));
         let (w, h) = (320u32, 240u32);
         for (k, light) in scene.lights.iter().enumerate() {

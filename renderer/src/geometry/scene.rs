@@ -358,7 +358,7 @@ impl Scene {
     /// query that stops at the first hit.
     #[inline]
     pub fn occluded(&self, ray: Ray) -> bool {
-        crate::util::profile::count_ray();
+        crate::util::pixel_cost::count_ray();
         let ray = walkable(ray);
         let sheared = ShearedRay::new(&ray);
         let flat = self.bvh.as_ref().is_some_and(|bvh| {
@@ -411,7 +411,7 @@ impl Scene {
     ) -> bool {
         let Some(ray) = shadow_ray_from(origin, target, target_error, target_normal) else { return false };
         let ray = walkable(ray);
-        crate::util::profile::count_ray();
+        crate::util::pixel_cost::count_ray();
         let sheared = ShearedRay::new(&ray);
         let flat = self.bvh.as_ref().is_some_and(|bvh| {
             !bvh.ray_traverse_miss(ray, |r, slot| {

@@ -354,7 +354,7 @@ impl Scene {
     /// Whether no triangle of the scene can meet `shaft` (alpha-tested ones count as solid):
     /// `true` proves every ray the shaft covers unblocked.
     pub fn shaft_clear(&self, shaft: &Shaft) -> bool {
-        crate::util::profile::count_shaft();
+        crate::util::pixel_cost::count_shaft();
         self.shaft_triangles(shaft, |_| false)
     }
 
@@ -504,7 +504,7 @@ pub fn clear_leaves(
 
 /// [`clear_leaves`] for samples drawn through a map of the strata square onto the light:
 /// `part(a, b)` gives a part of the light (a, b ranges) holding the image of the strata block
-/// `a x b` (e.g. [`crate::geometry::light_sampling::HorizonWarp::bounds`]). Without
+/// `a x b` (e.g. [`crate::geometry::horizon_warp::HorizonWarp::bounds`]). Without
 /// `subdivide`, only the whole light is tested.
 pub fn clear_leaves_mapped(
     scene: &Scene,

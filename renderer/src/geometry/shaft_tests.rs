@@ -7,7 +7,7 @@ use crate::geometry::ray_origin::point_error;
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
 use crate::load::gltf_load::Geometry;
 use crate::methods::traced::{Traced, TracedParams};
-use crate::util::sampling::Rng;
+use crate::util::random::Rng;
 use glam::DVec3;
 use std::time::Duration;
 
@@ -187,14 +187,7 @@ fn quad_triangles(c: DVec3, u: DVec3, v: DVec3) -> [[DVec3; 3]; 2] {
 }
 
 fn plain_and_culled(s: &Scene) -> (Traced, Traced) {
-    let ctx = PrepareContext {
-        scene: s,
-        light: &s.lights[0],
-        light_index: 0,
-        visible: &[],
-        seed: 0,
-        memory_budget_bytes: u64::MAX,
-    };
+    let ctx = PrepareContext::for_light(s, 0);
     let mut plain = Traced::new(TracedParams::PLAIN, 1024);
     let mut culled = Traced::new(TracedParams::CULLED, 1024);
     plain.prepare(&ctx).unwrap();

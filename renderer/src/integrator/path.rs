@@ -15,8 +15,8 @@ use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::offset_origin;
 use crate::geometry::scene::{Scene, SurfaceHit};
 use crate::interface::shadowing::{LightShadowing, ShadowQuery};
-use crate::util::profile::Work;
-use crate::util::sampling::{Rng, stream_seed};
+use crate::util::pixel_cost::Work;
+use crate::util::random::{Rng, stream_seed};
 use glam::{Vec3, Vec3A};
 use obvhs::ray::Ray;
 use std::time::Instant;
@@ -85,7 +85,7 @@ pub struct PathContext<'a> {
 
 /// Shadow queries per path vertex (index 0 = the primary hit): how many, the rays traced for
 /// them, how many traced none, how many a depth-map method could not answer from its map
-/// ([`crate::util::profile::count_fallback`]), and (profiling) their seconds.
+/// ([`crate::util::pixel_cost::count_fallback`]), and (profiling) their seconds.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct VertexQueries {
     pub queries: u64,
@@ -151,7 +151,7 @@ pub fn cosine_direction(n: Vec3, u1: f32, u2: f32) -> Vec3 {
 ///
 /// A bounce under the geometric plane (a shading normal tilted past it) goes on from the
 /// plane's other side, as next-event estimation's light samples under it do
-/// ([`crate::methods::light_samples::LightSample::height`]): both estimate the same
+/// ([`crate::methods::sample_stream::LightSample::height`]): both estimate the same
 /// reflection integral over the shading hemisphere, as pbrt-v4 and Mitsuba 3 do. Ending the
 /// path there, as before, dropped most of the bounces of a point seen past its shading plane,
 /// whose hemisphere lies mostly under the geometric plane, while its light samples counted.

@@ -28,7 +28,14 @@ pub struct PrepareContext<'a> {
     pub memory_budget_bytes: u64,
 }
 
-impl PrepareContext<'_> {
+impl<'a> PrepareContext<'a> {
+    /// Light `light_index` of `scene` alone: no visible points, seed 0, no memory budget.
+    /// For methods that read none of them (`traced`, `silhouette`), studies and tests.
+    pub fn for_light(scene: &'a Scene, light_index: usize) -> Self {
+        let light = &scene.lights[light_index];
+        Self { scene, light, light_index, visible: &[], seed: 0, memory_budget_bytes: u64::MAX }
+    }
+
     /// An error for `method` if the scene keeps instances unflattened: a method that reads
     /// the triangle arrays (its own structures over them) would miss those instances.
     pub fn require_flattened(&self, method: &'static str) -> Result<(), ShadowError> {

@@ -2,5 +2,5 @@
 //! Every other method lives in `shadow_plugin`, one folder each.
 
 pub mod irradiance_share;
-pub mod light_samples;
+pub mod sample_stream;
 pub mod traced;

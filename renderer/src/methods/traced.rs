@@ -5,7 +5,7 @@ use crate::geometry::scene::Scene;
 use crate::interface::entry::MethodEntry;
 use crate::interface::method::{KeyError, MethodParams, NoKeys, ShadowMethod};
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
-use crate::methods::light_samples::{Culling, SampleStream};
+use crate::methods::sample_stream::{Culling, SampleStream};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// No shadows: V = 1 everywhere. The cost floor every method's shadow cost is measured
@@ -66,7 +66,7 @@ impl LightShadowing for Unshadowed {
 
 /// Most light samples per shading point `traced` takes (defined with the sample rows it
 /// bounds, so that the two files do not import each other).
-pub use crate::methods::light_samples::MAX_TRACED_SAMPLES;
+pub use crate::methods::sample_stream::MAX_TRACED_SAMPLES;
 
 /// Parameters of the traced method. `[shadows.traced]` takes no keys ([`NoKeys`]): the sample
 /// count is `[shadows].samples` (given to [`ShadowMethod::build`]), and shaft culling is a
@@ -236,14 +236,7 @@ mod tests {
 
     fn traced(scene: &Scene, samples: u32) -> Traced {
         let mut t = Traced::new(TracedParams::PLAIN, samples);
-        let ctx = PrepareContext {
-            scene,
-            light: &scene.lights[0],
-            light_index: 0,
-            visible: &[],
-            seed: 0,
-            memory_budget_bytes: u64::MAX,
-        };
+        let ctx = PrepareContext::for_light(scene, 0);
         t.prepare(&ctx).unwrap();
         t
     }
@@ -327,14 +320,7 @@ mod tests {
     #[test]
     fn sample_counts_past_the_limit_are_refused_at_prepare() {
         let scene = quads_scene(&[FLOOR], unit_light_at(2.0));
-        let ctx = PrepareContext {
-            scene: &scene,
-            light: &scene.lights[0],
-            light_index: 0,
-            visible: &[],
-            seed: 0,
-            memory_budget_bytes: u64::MAX,
-        };
+        let ctx = PrepareContext::for_light(&scene, 0);
         let mut over = Traced::new(TracedParams::CULLED, MAX_TRACED_SAMPLES + 1);
         let err = over.prepare(&ctx).unwrap_err();
         assert!(err.message.contains("65536"), "{err}");

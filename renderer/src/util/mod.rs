@@ -1,7 +1,8 @@
-//! Helpers every floor uses: the one error type, typed TOML with key paths, per-pixel
-//! cost counters and deterministic random numbers.
+//! Helpers every floor uses: the input error ([`error::SceneError`]), typed TOML with key
+//! paths, per-pixel cost counters ([`pixel_cost`]) and deterministic random numbers
+//! ([`random`]).
 
 pub mod error;
 pub mod keys;
-pub mod profile;
-pub mod sampling;
+pub mod pixel_cost;
+pub mod random;

@@ -79,7 +79,7 @@ impl MapFallback {
     /// Traced visibility of `q`, counted as a fallback.
     pub fn trace(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         self.fallbacks.fetch_add(1, Ordering::Relaxed);
-        renderer::util::profile::count_fallback();
+        renderer::util::pixel_cost::count_fallback();
         self.traced.visibility(scene, q)
     }
 

@@ -15,8 +15,8 @@ pub mod fallback;
 mod fit;
 pub mod heightfield;
 pub mod march;
+pub mod mask_samples;
 mod pyramid;
-pub mod samples;
 #[cfg(test)]
 mod tests;
 

@@ -17,10 +17,10 @@ use crate::depth_map::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::fallback::{Located, MapFallback, OnMap};
 use crate::depth_map::heightfield::{Heightfield, inapplicable_to_reading};
 use crate::depth_map::march::{ray_blocked, stop_height};
-use crate::depth_map::samples;
+use crate::depth_map::mask_samples;
 use crate::depth_map::{DepthMap, DepthMapParams, MapPoint};
 use glam::Vec2;
-use renderer::util::sampling::Rng;
+use renderer::util::random::Rng;
 use renderer::{
     KeyError, LightShadowing, MethodParams, PrepareContext, Scene, ShadowError, ShadowMethod, ShadowQuery,
 };
@@ -185,12 +185,12 @@ impl LightShadowing for DepthMarch {
         let n = self.samples as usize;
         let mut sample_buf = [Vec2::ZERO; MAX_SAMPLES];
         let samples = &mut sample_buf[..n];
-        samples::stratified(samples, frame.half_size, &mut Rng::new(q.seed));
+        mask_samples::stratified(samples, frame.half_size, &mut Rng::new(q.seed));
         let w = bits::words(n);
         let mut visible = [0u64; MAX_WORDS];
         let mut above = [0u64; MAX_WORDS];
         march_bits(map, &mp, samples, z_stop, self.heightfield, &mut visible[..w]);
-        samples::above_horizon(frame, samples, Vec2::ONE, &q.point, &mut above[..w]);
+        mask_samples::above_horizon(frame, samples, Vec2::ONE, &q.point, &mut above[..w]);
         let n_above = bits::count(&above[..w]);
         if n_above == 0 {
             return 1.0;

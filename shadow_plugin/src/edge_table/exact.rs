@@ -297,7 +297,7 @@ impl ExactMap {
         let words = bits::words(n);
         let mut above = [0u64; MAX_WORDS];
         let above = &mut above[..words];
-        crate::depth_map::samples::above_horizon(frame, &m.mask.samples, Vec2::ONE, &q.point, above);
+        crate::depth_map::mask_samples::above_horizon(frame, &m.mask.samples, Vec2::ONE, &q.point, above);
         let n_above = bits::count(above);
         if (n_above as f32) < HORIZON_SHARE * n as f32 {
             return None;

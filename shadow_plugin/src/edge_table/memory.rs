@@ -6,9 +6,9 @@
 use super::params::{EdgeTableParams, Reading};
 use super::{EdgeTable, Mask, grid};
 use crate::depth_map::heightfield::Heightfield;
-use crate::depth_map::samples;
+use crate::depth_map::mask_samples;
 use glam::Vec2;
-use renderer::util::sampling::{Rng, stream_seed};
+use renderer::util::random::{Rng, stream_seed};
 use renderer::{PrepareContext, ShadowError};
 
 /// Peak bytes per depth-map pixel while the exact reading's map is built: the conservative
@@ -77,7 +77,7 @@ pub fn mask_inputs(
     let offset = Vec2::new((ax as f32 + centre) / gx as f32, (ay as f32 + centre) / gy as f32);
     let mut s = vec![Vec2::ZERO; samples as usize];
     let light = ctx.light_index as u64;
-    samples::stratified(&mut s, half, &mut Rng::new(stream_seed(&[ctx.seed, light, m as u64, 3])));
+    mask_samples::stratified(&mut s, half, &mut Rng::new(stream_seed(&[ctx.seed, light, m as u64, 3])));
     (offset, s)
 }
 
@@ -182,7 +182,7 @@ mod tests {
         let mut rng = Rng::new(7);
         for (n, depth, h_stop) in [(64, 1.0, 0.3), (1024, 2.0, 0.6), (4096, 2.0, 0.5), (256, 3.0, 0.05)] {
             let mut s = vec![Vec2::ZERO; n];
-            samples::stratified(&mut s, Vec2::new(0.45, 0.3), &mut rng);
+            mask_samples::stratified(&mut s, Vec2::new(0.45, 0.3), &mut rng);
             for heightfield in [Heightfield::Plates, Heightfield::Shells] {
                 for offset in [Vec2::ZERO, Vec2::new(0.5, 0.25), Vec2::new(0.99, 0.01)] {
                     let pitch = 0.01;

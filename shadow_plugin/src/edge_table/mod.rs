@@ -83,7 +83,7 @@ use crate::depth_map::DepthMap;
 use crate::depth_map::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::fallback::{Located, MapFallback, OnMap};
 use crate::depth_map::march::stop_height;
-use crate::depth_map::samples;
+use crate::depth_map::mask_samples;
 use glam::Vec2;
 use grid::{Layout, MaskGrid};
 use rayon::prelude::*;
@@ -310,7 +310,7 @@ impl EdgeTable {
             lookups += stats.lookups;
             early_outs += stats.early_out as u64;
             culled += stats.blocks_culled;
-            let all_above = samples::above_horizon(
+            let all_above = mask_samples::above_horizon(
                 frame,
                 &mask.samples,
                 mirror.map(|m| if m { -1.0 } else { 1.0 }).into(),
@@ -325,7 +325,7 @@ impl EdgeTable {
             v += w * if n_above == 0 { 1.0 } else { n_visible as f32 / n_above as f32 };
         }
         self.lookups.fetch_add(lookups, Ordering::Relaxed);
-        renderer::util::profile::count_lookups(lookups);
+        renderer::util::pixel_cost::count_lookups(lookups);
         self.early_outs.fetch_add(early_outs, Ordering::Relaxed);
         if culled > 0 {
             self.blocks_culled.fetch_add(culled, Ordering::Relaxed);
@@ -371,7 +371,7 @@ impl EdgeTable {
         if located.is_none() {
             // Off the map: every ray traced (once per query: the horizon's fallback above
             // counts its own).
-            renderer::util::profile::count_fallback();
+            renderer::util::pixel_cost::count_fallback();
         }
         if !traced_only {
             c.rays_clear.fetch_add(stats.rays_clear, Ordering::Relaxed);
@@ -381,7 +381,7 @@ impl EdgeTable {
             c.rays_near_traced.fetch_add(stats.rays_near_traced, Ordering::Relaxed);
             c.rays_far_traced.fetch_add(stats.rays_far_traced, Ordering::Relaxed);
             self.lookups.fetch_add(stats.lookups, Ordering::Relaxed);
-            renderer::util::profile::count_lookups(stats.lookups);
+            renderer::util::pixel_cost::count_lookups(stats.lookups);
             if stats.blocks_culled > 0 {
                 self.blocks_culled.fetch_add(stats.blocks_culled, Ordering::Relaxed);
             }

@@ -77,11 +77,11 @@
 
 use crate::depth_map::bits::{self, MAX_SAMPLES, MAX_WORDS};
 use crate::depth_map::fallback::{Located, MapFallback, OnMap};
-use crate::depth_map::samples;
+use crate::depth_map::mask_samples;
 use crate::depth_map::{DepthMap, DepthMapParams, LightFrame, MapPoint, MapSwitches};
 use glam::{Vec2, Vec3};
 use renderer::methods::irradiance_share::IrradianceShare;
-use renderer::util::sampling::Rng;
+use renderer::util::random::Rng;
 use renderer::{
     KeyError, LightShadowing, MethodParams, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod,
     ShadowQuery,
@@ -320,7 +320,7 @@ impl LightShadowing for Pcss {
         // 1. Blocker search: where the rays to the blocker samples cross depth z_near.
         self.blocker_searches.fetch_add(1, Ordering::Relaxed);
         let blocker_samples = &mut sample_buf[..self.params.blocker_samples as usize];
-        samples::stratified(blocker_samples, frame.half_size, &mut Rng::new(q.seed ^ BLOCKER_SEED));
+        mask_samples::stratified(blocker_samples, frame.half_size, &mut Rng::new(q.seed ^ BLOCKER_SEED));
         let search = (1.0 / z_near - 1.0 / p.z) / map.pitch;
         let (mut depth_sum, mut blockers) = (0.0f32, 0u32);
         for s in blocker_samples.iter() {
@@ -342,10 +342,10 @@ impl LightShadowing for Pcss {
         // 3. PCF: one tap per light sample, counted over the samples above the horizon.
         let n = self.samples as usize;
         let taps = &mut sample_buf[..n];
-        samples::stratified(taps, frame.half_size, &mut Rng::new(q.seed));
+        mask_samples::stratified(taps, frame.half_size, &mut Rng::new(q.seed));
         let w = bits::words(n);
         let mut above = [0u64; MAX_WORDS];
-        samples::above_horizon(frame, taps, Vec2::ONE, &q.point, &mut above[..w]);
+        mask_samples::above_horizon(frame, taps, Vec2::ONE, &q.point, &mut above[..w]);
         let (mut lit, mut n_above) = (0u32, 0u32);
         let mut open = [0u64; MAX_WORDS];
         for (r, s) in taps.iter().enumerate() {
@@ -359,7 +359,7 @@ impl LightShadowing for Pcss {
             open[r / 64] |= (unblocked as u64) << (r % 64);
         }
         self.pcf_taps.fetch_add(n_above as u64, Ordering::Relaxed);
-        renderer::util::profile::count_lookups(n_above as u64);
+        renderer::util::pixel_cost::count_lookups(n_above as u64);
         share_of_irradiance(frame, q, taps, &above[..w], &open[..w], lit)
     }
 

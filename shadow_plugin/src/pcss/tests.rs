@@ -108,7 +108,7 @@ fn bare_pcss(m: &Pcss, p: Vec3, seed: u64) -> f32 {
     let mp = map.locate(p).unwrap();
     let depths = |n: u32, seed: u64, z: f32| -> Vec<f32> {
         let mut s = vec![Vec2::ZERO; n as usize];
-        samples::stratified(&mut s, map.frame.half_size, &mut Rng::new(seed));
+        mask_samples::stratified(&mut s, map.frame.half_size, &mut Rng::new(seed));
         let scale = (1.0 / z - 1.0 / p.z) / map.pitch;
         s.iter()
             .map(|s| {

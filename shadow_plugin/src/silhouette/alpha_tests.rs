@@ -2,7 +2,7 @@
 
 use super::*;
 use glam::{Affine2, Vec4};
-use renderer::util::sampling::Rng;
+use renderer::util::random::Rng;
 
 /// 64 x 64: alpha 0 for the columns x < 32 (u < 0.5), 255 for the others.
 fn half() -> Texture {

@@ -25,7 +25,7 @@ use super::edges::EdgeSet;
 use super::kept::KeptEdges;
 use glam::{DVec3, Vec3, Vec3A};
 use renderer::geometry::shaft::Shaft;
-use renderer::util::sampling::mix64;
+use renderer::util::random::mix64;
 use renderer::{RectLight, Scene};
 
 /// A cube's side is about the origin's distance to the light's centre over this. Measured

@@ -58,7 +58,7 @@ mod welding;
 use edge_tree::EdgeTree;
 use edges::EdgeSet;
 use renderer::interface::method::NoKeys;
-use renderer::methods::light_samples::{Culling, LightSample, SampleStream};
+use renderer::methods::sample_stream::{Culling, LightSample, SampleStream};
 use renderer::{
     KeyError, LightShadowing, MethodParams, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod,
     ShadowQuery,

@@ -9,7 +9,7 @@ use glam::{DVec2, Vec3};
 use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;
 use renderer::geometry::shaft::{self, Shaft};
-use renderer::methods::light_samples::{LightSample, PointSamples};
+use renderer::methods::sample_stream::{LightSample, PointSamples};
 use renderer::{RectLight, Scene, ShadowQuery};
 use std::sync::atomic::Ordering;
 
@@ -188,7 +188,7 @@ fn side_edges((plugin, scene): (&Silhouette, &Scene), side: &Side, s: &mut Scrat
     c.edges_tested.fetch_add(s.candidates.len() as u64, Ordering::Relaxed);
     c.edges_active.fetch_add(s.active.len() as u64, Ordering::Relaxed);
     // The profile's per-pixel unit of this method's own work: its active edges.
-    renderer::util::profile::count_lookups(s.active.len() as u64);
+    renderer::util::pixel_cost::count_lookups(s.active.len() as u64);
     if 4 * s.active.len() > MAX_EDGES_PER_SAMPLE_QUARTERS * n {
         return Err(Fallback::Costly);
     }

@@ -11,7 +11,7 @@ use super::{Fallback, Silhouette};
 use glam::{DVec2, DVec3};
 use renderer::Scene;
 use renderer::geometry::shaft::Shaft;
-use renderer::methods::light_samples::LightSample;
+use renderer::methods::sample_stream::LightSample;
 use std::cell::RefCell;
 
 #[derive(Default)]

@@ -3,7 +3,7 @@
 //! are merged into its table before it is typed, so that the file and its overrides are
 //! checked once, by the same ranges in the same words. The `[shadows]` table is kept raw
 //! here: only the CLI knows every shadow method, so it types that table itself (see
-//! `penumbra::config`).
+//! `penumbra::shadows_config`).
 
 use crate::util::error::SceneError;
 use crate::util::keys::{deserialize_toml, deserialize_value};

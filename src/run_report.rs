@@ -49,10 +49,10 @@ pub struct ProfileTotals {
 
 impl ProfileTotals {
     pub fn of(
-        costs: &[renderer::util::profile::PixelCost],
+        costs: &[renderer::util::pixel_cost::PixelCost],
         vertices: &[renderer::integrator::path::VertexQueries],
     ) -> Self {
-        let (shading_s, w) = renderer::util::profile::totals(costs);
+        let (shading_s, w) = renderer::util::pixel_cost::totals(costs);
         let shadow_s_by_vertex = vertices.iter().map(|v| v.seconds).collect();
         ProfileTotals { shading_s, rays: w.rays, shafts: w.shafts, lookups: w.lookups, shadow_s_by_vertex }
     }

@@ -4,15 +4,15 @@
 //! them. `traced` traces them all; methods that must agree with it sample by sample
 //! (`silhouette`) draw the same and trace what they cannot settle.
 
+use crate::geometry::horizon_warp::{HorizonPart, HorizonWarp};
 use crate::geometry::irradiance_strata::{Columns, IrradianceStrata};
 use crate::geometry::light::RectLight;
-use crate::geometry::light_sampling::{HorizonPart, HorizonWarp};
 use crate::geometry::ray_origin::offset_origin;
 use crate::geometry::scene::Scene;
 use crate::geometry::shaft;
 use crate::interface::shadowing::ShadowQuery;
 use crate::methods::irradiance_share::{IrradianceShare, ShareTally};
-use crate::util::sampling::{Rng, strata};
+use crate::util::random::{Rng, strata};
 use glam::Vec3;
 use std::cell::OnceCell;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -154,7 +154,7 @@ impl<'a> PointSamples<'a> {
     ) -> Result<Self, f32> {
         let (nx, ny) = strata(samples);
         // Where the horizon cuts the light, the strata are warped onto the part above it
-        // ([`crate::geometry::light_sampling::HorizonWarp`]): every sample counts. The whole light
+        // ([`crate::geometry::horizon_warp::HorizonWarp`]): every sample counts. The whole light
         // above, or too thin a part above, keeps the plain grid (and its fallback below).
         let point = &q.point;
         let (warp, whole) = match HorizonPart::new(&light, point) {

@@ -4,7 +4,7 @@ use crate::depth_map::LightFrame;
 use crate::depth_map::bits;
 use glam::Vec2;
 use renderer::ShadingPoint;
-use renderer::util::sampling::{Rng, strata};
+use renderer::util::random::{Rng, strata};
 
 /// Writes `out.len()` stratified, jittered samples over the light (an nx x ny grid, see
 /// [`strata`]), in the light's frame.

@@ -207,7 +207,7 @@ impl HorizonWarp {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::util::sampling::Rng;
+    use crate::util::random::Rng;
 
     /// Cut lines of every kind: through two opposite sides, adjacent sides (corner slivers
     /// large and tiny, on every corner), nearly parallel to either axis, and through corners.
@@ -402,14 +402,14 @@ mod tests {
 #[cfg(test)]
 mod traced_tests {
     use crate::geometry::camera::Camera;
+    use crate::geometry::horizon_warp::HorizonPart;
     use crate::geometry::light::RectLight;
-    use crate::geometry::light_sampling::HorizonPart;
     use crate::geometry::point::ShadingPoint;
     use crate::geometry::scene::Scene;
     use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowQuery};
     use crate::load::gltf_load::Geometry;
     use crate::methods::traced::{Traced, TracedParams};
-    use crate::util::sampling::Rng;
+    use crate::util::random::Rng;
     use glam::{DVec3, Vec3};
     use std::time::Duration;
 
@@ -430,14 +430,7 @@ mod traced_tests {
     }
 
     fn traced(s: &Scene, mut t: Traced) -> Traced {
-        let ctx = PrepareContext {
-            scene: s,
-            light: &s.lights[0],
-            light_index: 0,
-            visible: &[],
-            seed: 0,
-            memory_budget_bytes: u64::MAX,
-        };
+        let ctx = PrepareContext::for_light(s, 0);
         t.prepare(&ctx).unwrap();
         t
     }
