@@ -44,17 +44,15 @@ impl ShadowsConfig {
     ) -> Result<Self, SceneError> {
         let names: Vec<&'static str> = methods.iter().map(|m| m.name).collect();
         let mut config = Self { chosen: 0, samples: DEFAULT_SAMPLES, settings: Vec::new() };
+        // Checked once the method is known: its own limit, in the words `validate` uses.
+        let mut samples = i64::from(DEFAULT_SAMPLES);
         for (key, value) in table {
             let key_path = format!("shadows.{key}");
             match (key.as_str(), value) {
                 ("method", toml::Value::String(name)) => {
                     config.chosen = index(&names, name, file, &key_path)?
                 }
-                ("samples", toml::Value::Integer(n)) => {
-                    config.samples = u32::try_from(*n).map_err(|_| {
-                        SceneError::new(file, &key_path, format!("must be in 1..=65536, got {n}"))
-                    })?;
-                }
+                ("samples", toml::Value::Integer(n)) => samples = *n,
                 ("method", _) => return Err(SceneError::new(file, key_path, "must be a string")),
                 ("samples", _) => return Err(SceneError::new(file, key_path, "must be an integer")),
                 (name, value) if names.contains(&name) && !value.is_table() => {
@@ -82,14 +80,15 @@ impl ShadowsConfig {
             assert_eq!(setting.name(), m.name, "a method's settings are named as it is registered");
             config.settings.push(setting);
         }
-        config.validate(file, "shadows.samples")?;
+        let max = config.method().max_samples();
+        config.samples = u32::try_from(samples).ok().filter(|n| (1..=max).contains(n)).ok_or_else(|| {
+            SceneError::new(
+                file,
+                "shadows.samples",
+                format!("must be in 1..={max} for {}, got {samples}", config.name()),
+            )
+        })?;
         Ok(config)
-    }
-
-    /// Chooses the method called `name` (the `--shadows` override); `key` names the source.
-    pub fn choose(&mut self, name: &str, file: &Path, key: &str) -> Result<(), SceneError> {
-        self.chosen = index(&self.names(), name, file, key)?;
-        Ok(())
     }
 
     /// Chooses `method` with these settings (code-only fields included): studies and tests.
@@ -116,20 +115,6 @@ impl ShadowsConfig {
     /// A fresh, unprepared plugin for one light.
     pub fn build(&self) -> Box<dyn LightShadowing> {
         self.method().build(self.samples)
-    }
-
-    /// Checks the sample count against the chosen method; `samples_key` names where it came
-    /// from (the scene key or the CLI flag).
-    pub fn validate(&self, file: &Path, samples_key: &str) -> Result<(), SceneError> {
-        let max = self.method().max_samples();
-        if self.samples == 0 || self.samples > max {
-            return Err(SceneError::new(
-                file,
-                samples_key,
-                format!("must be in 1..={max} for {}, got {}", self.name(), self.samples),
-            ));
-        }
-        Ok(())
     }
 }
 

@@ -10,6 +10,7 @@ use penumbra::bench::plot::{Style, style};
 use penumbra::bench::{BenchArgs, run_bench_in, sweep};
 use penumbra::key_reference::{page, section_errors, sections};
 use penumbra::methods::{METHODS, Registered, find, names, retired, value_parser_of};
+use penumbra::request::{Overrides, Request};
 use penumbra::shadows_config::ShadowsConfig;
 use renderer::{
     KeyError, LightShadowing, MethodEntry, MethodParams, PrepareContext, Scene, SceneError, ShadowError,
@@ -130,9 +131,7 @@ fn the_scene_file_reads_the_toys_table() {
     let e = shadows("method = \"magic\"", &reg).unwrap_err();
     assert_eq!(e.message, format!("unknown method \"magic\"; expected one of {}, \"toy\"", names()));
     assert!(names().starts_with("\"traced\", \"none\", \"edge_table\", \"pcss\""));
-    let mut c = shadows("", &reg).unwrap();
-    c.choose("toy", Path::new("s.toml"), "--shadows").unwrap();
-    assert_eq!(c.name(), "toy");
+    assert_eq!(shadows("method = \"toy\"", &reg).unwrap().name(), "toy");
     // Without the registry line, the toy is nothing.
     assert_eq!(shadows("[toy]\nlevel = 0.25", METHODS).unwrap_err().key, "shadows.toy");
     assert!(find("toy").is_none());
@@ -154,8 +153,10 @@ fn a_retired_method_is_the_registrys_word_alone() {
         assert!(e.message.starts_with("\"depth_march\" was retired; use method = \"edge_table\""), "{e}");
         assert!(e.message.contains("docs/notes/2026-11-26-retired-depth-march.md"), "{e}");
     }
-    let mut c = shadows("", METHODS).unwrap();
-    let e = c.choose("depth_march", Path::new("s.toml"), "--shadows").unwrap_err();
+    // Given as `--shadows` (merged into the scene file, as the command line does), the
+    // error names the flag.
+    let flag = Overrides { shadows: Some("depth_march".into()), ..Overrides::default() };
+    let e = Request::read(None, &flag).unwrap_err();
     assert_eq!(e.key, "--shadows");
     assert!(e.message.contains("retired"), "{e}");
     let again: Vec<Registered> =

@@ -4,6 +4,7 @@
 
 use penumbra::key_reference;
 use penumbra::methods::METHODS;
+use penumbra::request::{Overrides, Request};
 use penumbra::shadows_config::ShadowsConfig;
 use renderer::interface::method::default_table;
 use renderer::{MethodEntry, MethodParams, SceneError, TracedParams, parse_method};
@@ -286,10 +287,24 @@ fn an_empty_table_gives_each_method_its_defaults() {
 
 #[test]
 fn the_chosen_method_builds_and_the_override_keeps_its_table() {
-    let mut c = shadows("method = \"none\"\nsamples = 64\n[pcss]\nblocker_samples = 8").unwrap();
+    let c = shadows("method = \"none\"\nsamples = 64\n[pcss]\nblocker_samples = 8").unwrap();
     assert_eq!((c.name(), c.samples, c.build().name()), ("none", 64, "none"));
-    c.choose("pcss", Path::new("s.toml"), "--shadows").unwrap();
+    // `--shadows pcss` over that file: the file's `[pcss]` table is the one read.
+    let dir = std::env::temp_dir().join(format!("penumbra-scene-keys-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("s.toml");
+    let text =
+        penumbra::DEFAULT_SCENE.replace("[shadows]", "[shadows.pcss]\nblocker_samples = 8\n\n[shadows]");
+    assert_ne!(text, penumbra::DEFAULT_SCENE);
+    std::fs::write(&scene, text).unwrap();
+    let flag = |m: &str| Overrides { shadows: Some(m.into()), ..Overrides::default() };
+    let c = Request::read(Some(&scene), &flag("pcss")).unwrap().shadows;
     assert_eq!((c.name(), c.build().name()), ("pcss", "pcss"));
-    assert_eq!(c.choose("magic", Path::new("s.toml"), "--shadows").unwrap_err().key, "--shadows");
+    assert_eq!(
+        format!("{:?}", c.method()),
+        format!("{:?}", PcssParams { blocker_samples: 8, ..PcssParams::default() })
+    );
+    assert_eq!(Request::read(Some(&scene), &flag("magic")).unwrap_err().key, "--shadows");
+    let _ = std::fs::remove_dir_all(&dir);
     assert_eq!(ShadowsConfig::default().name(), "traced");
 }

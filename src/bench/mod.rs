@@ -49,7 +49,7 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = 3, allow_negative_numbers = true, value_parser = crate::flags::whole(1..=100))]
     pub repeats: u32,
     /// Light samples of the traced truth.
-    #[arg(long, default_value_t = 4096, allow_negative_numbers = true, value_parser = crate::flags::whole(1..=65536))]
+    #[arg(long, default_value_t = 4096, allow_negative_numbers = true, value_parser = crate::flags::whole(1..=renderer::MAX_TRACED_SAMPLES))]
     pub truth_samples: u32,
     /// Truth cache folder. Default: OUT/truth-cache.
     #[arg(long)]
