@@ -29,21 +29,21 @@ pub struct RenderArgs {
     /// Light samples per shading point; overrides `[shadows].samples` (each method's own
     /// limit: 65536 for `traced`).
     #[arg(long, allow_negative_numbers = true,
-          value_parser = flags::whole(1..=renderer::methods::sample_stream::MAX_TRACED_SAMPLES))]
+          value_parser = flags::key_value(1..=renderer::methods::sample_stream::MAX_TRACED_SAMPLES))]
     pub samples: Option<u32>,
     /// Image width in pixels, 1..=16384; overrides `[image].width`.
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::scene_file::IMAGE_SIDE))]
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::key_value(renderer::load::scene_file::IMAGE_SIDE))]
     pub width: Option<u32>,
     /// Image height in pixels, 1..=16384; overrides `[image].height`.
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::scene_file::IMAGE_SIDE))]
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::key_value(renderer::load::scene_file::IMAGE_SIDE))]
     pub height: Option<u32>,
     /// Primary samples per pixel, 1..=4096 (1 = the pixel centre); overrides `[image].spp`.
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::whole(renderer::load::scene_file::SPP))]
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::key_value(renderer::load::scene_file::SPP))]
     pub spp: Option<u32>,
     /// Longest light path, counted as Mitsuba 3 counts it, 2..=64: 2 = direct light only, 5 =
     /// three indirect bounces; overrides `[integrator].max_depth` (default: the scene file's,
     /// else 5; every scene shipped here sets 2).
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::depth)]
+    #[arg(long, allow_negative_numbers = true, value_parser = flags::depth_value)]
     pub max_depth: Option<u32>,
     /// Output PNG; the EXR and JSON report go beside it. Default: out/<scene-stem>.png.
     #[arg(long)]
