@@ -185,7 +185,7 @@ struct RenderPlan {
 }
 
 impl RenderArgs {
-    /// The values this command line gives for scene-file keys.
+    /// The values this command line gives for scene-file keys (and the code-only method).
     fn overrides(&self) -> Overrides {
         Overrides {
             shadows: self.shadows.clone(),
@@ -194,6 +194,7 @@ impl RenderArgs {
             height: self.height,
             spp: self.spp,
             max_depth: self.max_depth,
+            method: self.method.clone(),
         }
     }
 }
@@ -201,11 +202,9 @@ impl RenderArgs {
 /// The request `args` make, checked, and where its outputs go, before anything is loaded or
 /// rendered.
 fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
-    let Request { scene_path, embedded, file, mut shadows } =
-        Request::read(args.scene.as_deref(), &args.overrides())?;
-    if let Some(m) = &args.method {
-        shadows.set_method(m.clone());
-    }
+    let request = Request::read(args.scene.as_deref(), &args.overrides())?;
+    request.check_frame_size()?;
+    let Request { scene_path, embedded, file, shadows, .. } = request;
     // Checked here, before anything is loaded: read again (with the machine's free memory)
     // when the frame begins.
     memory::budget_override()?;

@@ -1,12 +1,14 @@
-//! One render request: the scene file with the command line's overrides merged into its
-//! table, typed and checked once ([`SceneFile::parse_with`], then `[shadows]` through the
-//! registry). Every range is the scene file's (`renderer::load::scene_file`); an error about a
-//! value a flag gave names the flag. After this, nothing downstream checks a setting again.
+//! One render request: the scene file with the command line's values merged into its table
+//! ([`Override`]), typed and checked by the scene file's own checks, with the same ranges and
+//! words, so that an error about a value a flag gave names the flag. The file is first
+//! checked as written (a value a flag replaces must still be valid there, and an error with
+//! no key keeps its byte offset); nothing downstream checks a setting again.
 
 use crate::shadows_config::ShadowsConfig;
-use renderer::load::scene_file::Override;
-use renderer::{SceneError, SceneFile};
+use renderer::load::scene_file::{MAX_PRIMARY_SAMPLES, Override};
+use renderer::{SceneError, SceneFile, ShadowMethod};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// The default scene, embedded so that `penumbra` with no arguments works anywhere.
 pub const DEFAULT_SCENE: &str = include_str!("../scenes/default.toml");
@@ -27,6 +29,9 @@ pub struct Overrides {
     pub spp: Option<u32>,
     /// `--max-depth`: `[integrator].max_depth`.
     pub max_depth: Option<u32>,
+    /// Code only (no flag): these settings in place of the chosen method's, for studies that
+    /// switch what a scene file cannot (a plugin's code-only fields).
+    pub method: Option<Arc<dyn ShadowMethod>>,
 }
 
 impl Overrides {
@@ -65,20 +70,46 @@ pub struct Request {
     pub file: SceneFile,
     /// `file.shadows`, typed: the chosen method and its sample count.
     pub shadows: ShadowsConfig,
+    /// The flags' values, for errors about the request as a whole.
+    overrides: Vec<Override>,
 }
 
 impl Request {
     /// The scene file at `scene` (else the embedded default scene) with `overrides` merged
-    /// in, typed and checked once.
+    /// in, typed and checked.
     pub fn read(scene: Option<&Path>, overrides: &Overrides) -> Result<Self, SceneError> {
         let (scene_path, text, embedded) = match scene {
             Some(p) => (p.to_path_buf(), SceneFile::read(p)?, None),
             None => (PathBuf::from(DEFAULT_SCENE_NAME), DEFAULT_SCENE.to_string(), Some(DEFAULT_SCENE)),
         };
-        let overrides = overrides.list();
-        let file = SceneFile::parse_with(&text, &scene_path, &overrides)?;
-        let shadows = ShadowsConfig::from_table(&file.shadows, &scene_path)
-            .map_err(|e| Override::relabel(&overrides, e))?;
-        Ok(Self { scene_path, embedded, file, shadows })
+        let as_written = SceneFile::parse(&text, &scene_path)?;
+        let shadows = ShadowsConfig::from_table(&as_written.shadows, &scene_path)?;
+        let list = overrides.list();
+        if list.is_empty() && overrides.method.is_none() {
+            return Ok(Self { scene_path, embedded, file: as_written, shadows, overrides: list });
+        }
+        let relabel = |e| Override::relabel(&list, e);
+        let file = SceneFile::parse_with(&text, &scene_path, &list)?;
+        let method = overrides.method.clone();
+        let shadows =
+            ShadowsConfig::from_table_in(&file.shadows, &scene_path, crate::methods::METHODS, method)
+                .map_err(relabel)?;
+        Ok(Self { scene_path, embedded, file, shadows, overrides: list })
+    }
+
+    /// Refuses a frame whose primary samples (width x height x spp) would not fit: every one
+    /// is kept for the shadow methods' `prepare`. A render's check, not the scene file's (the
+    /// bench renders a file at its own size).
+    pub fn check_frame_size(&self) -> Result<(), SceneError> {
+        let im = &self.file.image;
+        if im.width as u64 * im.height as u64 * im.spp as u64 > MAX_PRIMARY_SAMPLES {
+            let message =
+                format!("width x height x spp must be at most {MAX_PRIMARY_SAMPLES} (about 6 GB of samples)");
+            return Err(Override::relabel(
+                &self.overrides,
+                SceneError::new(&self.scene_path, "image.spp", message),
+            ));
+        }
+        Ok(())
     }
 }

@@ -32,15 +32,17 @@ impl Default for ShadowsConfig {
 impl ShadowsConfig {
     /// Types the raw `[shadows]` table of `file`.
     pub fn from_table(table: &toml::Table, file: &Path) -> Result<Self, SceneError> {
-        Self::from_table_in(table, file, METHODS)
+        Self::from_table_in(table, file, METHODS, None)
     }
 
     /// Types the raw `[shadows]` table of `file` with the methods of `methods` (the first
-    /// one the default).
+    /// one the default); `method`, when given, in place of the chosen method's settings
+    /// (code-only fields included: studies and tests) before the sample count is checked.
     pub fn from_table_in(
         table: &toml::Table,
         file: &Path,
         methods: &[Registered],
+        method: Option<Arc<dyn ShadowMethod>>,
     ) -> Result<Self, SceneError> {
         let names: Vec<&'static str> = methods.iter().map(|m| m.name).collect();
         let mut config = Self { chosen: 0, samples: DEFAULT_SAMPLES, settings: Vec::new() };
@@ -80,6 +82,9 @@ impl ShadowsConfig {
             assert_eq!(setting.name(), m.name, "a method's settings are named as it is registered");
             config.settings.push(setting);
         }
+        if let Some(m) = method {
+            config.set_method(m);
+        }
         let max = config.method().max_samples();
         config.samples = u32::try_from(samples).ok().filter(|n| (1..=max).contains(n)).ok_or_else(|| {
             SceneError::new(
@@ -91,8 +96,8 @@ impl ShadowsConfig {
         Ok(config)
     }
 
-    /// Chooses `method` with these settings (code-only fields included): studies and tests.
-    pub fn set_method(&mut self, method: Arc<dyn ShadowMethod>) {
+    /// Chooses `method` with these settings (code-only fields included).
+    fn set_method(&mut self, method: Arc<dyn ShadowMethod>) {
         self.chosen = self.names().iter().position(|&m| m == method.name()).expect("a registered method");
         self.settings[self.chosen] = method;
     }

@@ -7,8 +7,11 @@ mod folders;
 #[path = "common/tiny_scene.rs"]
 mod tiny_scene;
 use folders::{penumbra, temp_dir};
+use renderer::{ShadowMethod, TracedParams};
+use shadow_plugin::EdgeTableParams;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Arc;
 
 const SCENE: &str = card_scene!("[shadows]\nmethod = \"traced\"\nsamples = 16\n");
 
@@ -502,6 +505,34 @@ fn flags_are_checked_with_the_scene_file_as_one_request() {
         args.extend_from_slice(flags);
         assert_bad_input(&dir, &args, names);
     }
+    // The file is checked as written too: a flag does not hide a bad value under it.
+    std::fs::write(dir.join("zero.toml"), SCENE.replace("width = 48", "width = 0")).unwrap();
+    assert_bad_input(
+        &dir,
+        &["render", "zero.toml", "--width", "48", "--out", "o.png"],
+        &["zero.toml", "image.width"],
+    );
+    // Code-only settings (a study's) are checked with the sample count as the method chosen.
+    use penumbra::{CliError, RenderArgs, run_render};
+    let study = |method: Arc<dyn ShadowMethod>, samples: u32| RenderArgs {
+        scene: Some(dir.join("ok.toml")),
+        out: Some(dir.join("study/o.png")),
+        samples: Some(samples),
+        width: Some(8),
+        height: Some(6),
+        method: Some(method),
+        quiet: true,
+        ..Default::default()
+    };
+    match run_render(&study(Arc::new(EdgeTableParams::default()), 8192)) {
+        Err(CliError::Input(e)) => {
+            assert!(e.key == "--samples" && e.message.contains("for edge_table"), "{e}")
+        }
+        other => panic!("{other:?}"),
+    }
+    std::fs::write(dir.join("ok.toml"), SCENE.replace("method = \"traced\"", "method = \"edge_table\""))
+        .unwrap();
+    run_render(&study(Arc::new(TracedParams::PLAIN), 8192)).expect("traced takes 8192 samples");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -402,7 +402,7 @@ fn a_path_depth_outside_two_to_sixty_four_is_an_error() {
         assert_error(
             &render(&dir, &scene, &["--max-depth", depth]),
             &dir,
-            &["'--max-depth <MAX_DEPTH>': ", "2..=64", &format!("got {depth}")],
+            &["--max-depth: ", "2..=64", &format!("got {depth}")],
         );
     }
     let scene = format!("{CAMERA_AND_LIGHT}{FLOOR}[integrator]\nmax_depth = 1\n");

@@ -110,7 +110,7 @@ fn with_toy() -> Vec<Registered> {
 }
 
 fn shadows(text: &str, methods: &[Registered]) -> Result<ShadowsConfig, SceneError> {
-    ShadowsConfig::from_table_in(&text.parse::<toml::Table>().unwrap(), Path::new("s.toml"), methods)
+    ShadowsConfig::from_table_in(&text.parse::<toml::Table>().unwrap(), Path::new("s.toml"), methods, None)
 }
 
 #[test]

@@ -314,14 +314,6 @@ impl SceneFile {
         if !SPP.contains(&im.spp) {
             return err("image.spp".into(), &range_message(&SPP, &im.spp));
         }
-        if im.width as u64 * im.height as u64 * im.spp as u64 > MAX_PRIMARY_SAMPLES {
-            return err(
-                "image.spp".into(),
-                &format!(
-                    "width x height x spp must be at most {MAX_PRIMARY_SAMPLES} (about 6 GB of samples)"
-                ),
-            );
-        }
         let depth = self.integrator.max_depth;
         if !crate::integrator::path::DEPTH_RANGE.contains(&depth) {
             return err("integrator.max_depth".into(), &crate::integrator::path::depth_message(&depth));
