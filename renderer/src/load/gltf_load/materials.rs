@@ -1,6 +1,7 @@
 //! glTF materials and their base-colour textures: image sources checked before decoding,
 //! every pixel format widened to RGBA8.
 
+use super::files::{decodable_uri, uri_path};
 use super::*;
 
 /// Appends the file's materials to `geometry` (only what shading and the alpha test need),
