@@ -67,43 +67,7 @@ fn main() -> ExitCode {
                 eprintln!("warning: {w}");
             }
             if !args.quiet {
-                let r = &outcome.report;
-                let t = &r.timings_s;
-                // `none` casts no shadow rays: a sample count would say it does.
-                let samples =
-                    if r.method == "none" { String::new() } else { format!(" ({} samples)", r.samples) };
-                let kept = if r.kept_instances > 0 {
-                    format!(", {} kept unflattened", r.kept_instances)
-                } else {
-                    String::new()
-                };
-                println!(
-                    "{}: {} {}x{} spp {}{samples}, max depth {}, {} triangles ({} unique, {} instances{kept}), \
-                     {} light(s), {} threads",
-                    r.scene,
-                    r.method,
-                    r.width,
-                    r.height,
-                    r.spp,
-                    r.max_depth,
-                    r.triangles,
-                    r.unique_triangles,
-                    r.instances,
-                    r.lights,
-                    r.threads
-                );
-                println!(
-                    "time: load {:.3}s, bvh {:.3}s, visible points {:.3}s, shadow_prepare {:.3}s, render {:.3}s, \
-                     write {:.3}s, total {:.3}s",
-                    t.load, t.bvh, t.visible_points, t.shadow_prepare, t.render, t.write, t.total
-                );
-                if let Some(t) = &r.tile {
-                    println!(
-                        "tile {} of {}: rows {}..{}; merge every tile with `penumbra merge`",
-                        t.index, t.count, t.rows[0], t.rows[1]
-                    );
-                }
-                println!("wrote {}", r.outputs.join(", "));
+                print_summary(&outcome.report);
             }
             ExitCode::SUCCESS
         }
@@ -112,6 +76,43 @@ fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// `penumbra render`'s summary on stdout: what was rendered, where the time went, what was
+/// written.
+fn print_summary(r: &penumbra::run_report::RunReport) {
+    let t = &r.timings_s;
+    // `none` casts no shadow rays: a sample count would say it does.
+    let samples = if r.method == "none" { String::new() } else { format!(" ({} samples)", r.samples) };
+    let kept =
+        if r.kept_instances > 0 { format!(", {} kept unflattened", r.kept_instances) } else { String::new() };
+    println!(
+        "{}: {} {}x{} spp {}{samples}, max depth {}, {} triangles ({} unique, {} instances{kept}), \
+             {} light(s), {} threads",
+        r.scene,
+        r.method,
+        r.width,
+        r.height,
+        r.spp,
+        r.max_depth,
+        r.triangles,
+        r.unique_triangles,
+        r.instances,
+        r.lights,
+        r.threads
+    );
+    println!(
+        "time: load {:.3}s, bvh {:.3}s, visible points {:.3}s, shadow_prepare {:.3}s, render {:.3}s, \
+             write {:.3}s, total {:.3}s",
+        t.load, t.bvh, t.visible_points, t.shadow_prepare, t.render, t.write, t.total
+    );
+    if let Some(t) = &r.tile {
+        println!(
+            "tile {} of {}: rows {}..{}; merge every tile with `penumbra merge`",
+            t.index, t.count, t.rows[0], t.rows[1]
+        );
+    }
+    println!("wrote {}", r.outputs.join(", "));
 }
 
 /// `penumbra merge`: warnings to stderr, a summary unless `--quiet`.
