@@ -316,7 +316,6 @@ fn load_nodes(
     model_from_file: DMat4,
     geometry: &mut Geometry,
 ) -> Result<Option<GltfCamera>, SceneError> {
-    let fail = |key: &str, msg: String| SceneError::new(file.path, key, msg);
     let mut camera = None;
     // Depth-first over the node tree; an explicit stack so deep hierarchies cannot overflow.
     let mut stack: Vec<(gltf::Node, DMat4, usize)> = scene.nodes().map(|n| (n, model_from_file, 0)).collect();
@@ -324,41 +323,16 @@ fn load_nodes(
     // The spec's nodes form disjoint trees: a node reached twice is shared or in a cycle, and
     // a chain of nodes each listing the next twice is 2^n visits (a hang, not an error).
     let mut visited = std::collections::HashSet::new();
-    // A mesh's accessors (positions, indices, mode per primitive) -> the scene's mesh id,
-    // for meshes already met.
-    let mut meshes: HashMap<Vec<(usize, Option<usize>, u32)>, u32> = HashMap::new();
-    // The same key -> the mesh's primitives, for placements kept unflattened.
-    #[allow(clippy::type_complexity)]
-    let mut kept: HashMap<
-        (MeshKey, Vec<(Option<usize>, Option<usize>)>),
-        std::sync::Arc<Vec<PrimitiveData>>,
-    > = HashMap::new();
+    let mut met = MeshesMet::default();
     while let Some((node, parent, depth)) = stack.pop() {
         if !visited.insert(node.index()) {
-            return Err(fail(
-                &format!("nodes[{}]", node.index()),
-                "reached twice: a node may have one parent and appear in a scene once".into(),
+            return Err(SceneError::new(
+                file.path,
+                format!("nodes[{}]", node.index()),
+                "reached twice: a node may have one parent and appear in a scene once",
             ));
         }
-        if depth > 256 {
-            return Err(fail(
-                &format!("nodes[{}]", node.index()),
-                "node hierarchy deeper than 256 (a cycle?)".into(),
-            ));
-        }
-        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
-        let world = parent * local;
-        if !world.is_finite() {
-            return Err(fail(&format!("nodes[{}]", node.index()), "transform is not finite".into()));
-        }
-        // A mesh under a singular transform would lose all its area (every triangle dropped,
-        // or a placement with no inverse for the ray's move into its space).
-        if node.mesh().is_some() && world.determinant() == 0.0 {
-            return Err(fail(
-                &format!("nodes[{}]", node.index()),
-                "transform is singular (a zero scale): its mesh would have no area".into(),
-            ));
-        }
+        let world = node_world(file, &node, parent, depth)?;
         if camera.is_none()
             && let Some(cam) = node.camera()
             && let gltf::camera::Projection::Perspective(p) = cam.projection()
@@ -366,67 +340,112 @@ fn load_nodes(
             camera = Some(GltfCamera { world, yfov: p.yfov() as f64 });
         }
         if let Some(mesh) = node.mesh() {
-            // The mesh's topology is welded at its first use; later uses only add an instance.
-            // Keyed by the accessors its triangles are read from, not by the mesh: files
-            // repeat one geometry in meshes that differ only in material (metal-rough-spheres:
-            // 98 meshes, one sphere).
-            let key = mesh_key(&mesh);
-            let keep = geometry.keep_instances || geometry.shared.contains(&key);
-            let known = meshes.get(&key).copied();
-            let mut topology = known.is_none().then(TopologyBuilder::default);
-            let mesh_id = known.unwrap_or(geometry.meshes.len() as u32);
-            // Kept instances read a mesh's primitives once (10,000 boulders' nodes would read
-            // 82k triangles each).
-            // Their normals and texture coordinates too: meshes sharing positions may differ there.
-            let read_key: ReadKey = (key.clone(), mesh.primitives().map(|p| attribute_key(&p)).collect());
-            let cached = if keep { kept.get(&read_key).cloned() } else { None };
-            let mut read = Vec::new();
-            if cached.is_none() {
-                for prim in mesh.primitives() {
-                    read.extend(read_primitive(file, &mesh, &prim, topology.as_mut())?);
-                }
-            }
-            if let Some(t) = topology {
-                meshes.insert(key.clone(), mesh_id);
-                geometry.meshes.push(t.finish());
-            }
-            let placements = gpu_instancing::placements(file, &node, world)?;
-            if keep {
-                let prims: Vec<gltf::Primitive> = mesh.primitives().filter(has_triangles).collect();
-                let materials: std::sync::Arc<[u32]> = prims.iter().map(|p| material_id(file, p)).collect();
-                let data = match cached {
-                    Some(d) => d,
-                    None => {
-                        let d = std::sync::Arc::new(read.into_iter().map(|r| r.data).collect::<Vec<_>>());
-                        kept.insert(read_key, d.clone());
-                        d
-                    }
-                };
-                for placed in placements {
-                    let instance = geometry.instances.len() as u32;
-                    geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
-                    for (d, p) in data.iter().zip(&prims) {
-                        geometry.emitters.extend(emitter_of(d, &p.material(), placed));
-                    }
-                    let (primitives, materials) = (data.clone(), materials.clone());
-                    geometry.placements.push(Placement { primitives, world: placed, materials, instance });
-                }
-                continue_children(&node, world, depth, &mut stack);
-                continue;
-            }
-            for placed in placements {
-                let instance = geometry.instances.len() as u32;
-                geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
-                let mut origin = TriangleOrigin { instance, local: 0 };
-                for prim in &read {
-                    place_primitive(prim, placed, origin, geometry);
-                    origin.local += prim.triangles();
-                }
-            }
+            load_mesh_node(file, (&node, &mesh, world), &mut met, geometry)?;
         }
         continue_children(&node, world, depth, &mut stack);
     }
     Ok(camera)
+}
+
+/// `node`'s world transform under `parent`, at `depth` in the tree: an error for a
+/// hierarchy deeper than 256, a transform that is not finite, or a singular one under a mesh.
+fn node_world(
+    file: &FileContext,
+    node: &gltf::Node,
+    parent: DMat4,
+    depth: usize,
+) -> Result<DMat4, SceneError> {
+    let fail = |msg: &str| Err(SceneError::new(file.path, format!("nodes[{}]", node.index()), msg));
+    if depth > 256 {
+        return fail("node hierarchy deeper than 256 (a cycle?)");
+    }
+    let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+    let world = parent * local;
+    if !world.is_finite() {
+        return fail("transform is not finite");
+    }
+    // A mesh under a singular transform would lose all its area (every triangle dropped,
+    // or a placement with no inverse for the ray's move into its space).
+    if node.mesh().is_some() && world.determinant() == 0.0 {
+        return fail("transform is singular (a zero scale): its mesh would have no area");
+    }
+    Ok(world)
+}
+
+/// The meshes met so far in a file's node walk.
+#[derive(Default)]
+struct MeshesMet {
+    /// A mesh's accessors ([`MeshKey`]) -> the scene's mesh id.
+    ids: HashMap<MeshKey, u32>,
+    /// A mesh's primitives as read ([`ReadKey`]), for placements kept unflattened.
+    kept: HashMap<ReadKey, std::sync::Arc<Vec<PrimitiveData>>>,
+}
+
+/// One node's mesh under `world`: its topology welded at its first use (later uses only add
+/// an instance), then each placement (one, or `EXT_mesh_gpu_instancing`'s) either kept
+/// unflattened or flattened into `geometry`'s triangles.
+fn load_mesh_node(
+    file: &FileContext,
+    (node, mesh, world): (&gltf::Node, &gltf::Mesh, DMat4),
+    met: &mut MeshesMet,
+    geometry: &mut Geometry,
+) -> Result<(), SceneError> {
+    // Keyed by the accessors its triangles are read from, not by the mesh: files repeat one
+    // geometry in meshes that differ only in material (metal-rough-spheres: 98 meshes, one
+    // sphere).
+    let key = mesh_key(mesh);
+    let keep = geometry.keep_instances || geometry.shared.contains(&key);
+    let known = met.ids.get(&key).copied();
+    let mut topology = known.is_none().then(TopologyBuilder::default);
+    let mesh_id = known.unwrap_or(geometry.meshes.len() as u32);
+    // Kept instances read a mesh's primitives once (10,000 boulders' nodes would read 82k
+    // triangles each). Their normals and texture coordinates too: meshes sharing positions
+    // may differ there.
+    let read_key: ReadKey = (key.clone(), mesh.primitives().map(|p| attribute_key(&p)).collect());
+    let cached = if keep { met.kept.get(&read_key).cloned() } else { None };
+    let mut read = Vec::new();
+    if cached.is_none() {
+        for prim in mesh.primitives() {
+            read.extend(read_primitive(file, mesh, &prim, topology.as_mut())?);
+        }
+    }
+    if let Some(t) = topology {
+        met.ids.insert(key, mesh_id);
+        geometry.meshes.push(t.finish());
+    }
+    let placements = gpu_instancing::placements(file, node, world)?;
+    if keep {
+        let prims: Vec<gltf::Primitive> = mesh.primitives().filter(has_triangles).collect();
+        let materials: std::sync::Arc<[u32]> = prims.iter().map(|p| material_id(file, p)).collect();
+        let data = match cached {
+            Some(d) => d,
+            None => {
+                let d = std::sync::Arc::new(read.into_iter().map(|r| r.data).collect::<Vec<_>>());
+                met.kept.insert(read_key, d.clone());
+                d
+            }
+        };
+        for placed in placements {
+            let instance = geometry.instances.len() as u32;
+            geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
+            for (d, p) in data.iter().zip(&prims) {
+                geometry.emitters.extend(emitter_of(d, &p.material(), placed));
+            }
+            let (primitives, materials) = (data.clone(), materials.clone());
+            geometry.placements.push(Placement { primitives, world: placed, materials, instance });
+        }
+        return Ok(());
+    }
+    for placed in placements {
+        let instance = geometry.instances.len() as u32;
+        geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
+        let mut origin = TriangleOrigin { instance, local: 0 };
+        for prim in &read {
+            place_primitive(prim, placed, origin, geometry);
+            origin.local += prim.triangles();
+        }
+    }
+    Ok(())
 }
 
 /// Pushes `node`'s children (first child on top) for the depth-first walk.
