@@ -160,49 +160,24 @@ impl Scene {
             origins.push(s.origin);
         }
         let warnings = precision.warnings();
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for t in &tris {
-            for v in [t.v0, t.v1, t.v2] {
-                lo = lo.min(v.into());
-                hi = hi.max(v.into());
-            }
-        }
-        for p in instanced.iter().flat_map(|i| &i.placed) {
-            lo = lo.min(p.bounds.min.into());
-            hi = hi.max(p.bounds.max.into());
-        }
-        if tris.is_empty() && instanced.is_none() {
-            (lo, hi) = (Vec3::ZERO, Vec3::ZERO);
-        }
+        let (lo, hi) = scene_bounds(&tris, instanced.as_ref());
         let t_bvh = Instant::now();
         let bvh_span = tracing::info_span!("bvh", triangles = tris.len()).entered();
-        let bvh = match crate::geometry::scene_bvh::build(&tris, &origins, &instances, &meshes) {
-            None => None,
-            Some(mut bvh) => {
-                cover_depth(&mut bvh);
-                // Reorder once so that leaves index our arrays directly; in parallel, order
-                // kept (8.2 M triangles' arrays took ~1 s on one thread).
-                let order = &bvh.primitive_indices;
-                tris = order.par_iter().map(|&i| tris[i as usize]).collect();
-                shading = order.par_iter().map(|&i| shading[i as usize]).collect();
-                origins = order.par_iter().map(|&i| origins[i as usize]).collect();
-                Some(bvh)
-            }
-        };
+        let bvh = crate::geometry::scene_bvh::build(&tris, &origins, &instances, &meshes).map(|mut bvh| {
+            cover_depth(&mut bvh);
+            // Reorder once so that leaves index our arrays directly; in parallel, order kept
+            // (8.2 M triangles' arrays took ~1 s on one thread).
+            let order = &bvh.primitive_indices;
+            tris = order.par_iter().map(|&i| tris[i as usize]).collect();
+            shading = order.par_iter().map(|&i| shading[i as usize]).collect();
+            origins = order.par_iter().map(|&i| origins[i as usize]).collect();
+            bvh
+        });
         drop(bvh_span);
         let bvh_time = t_bvh.elapsed();
         let any_alpha_test =
             materials.iter().any(|m| !matches!(m.alpha, crate::geometry::material::AlphaMode::Opaque));
-        let stats = LoadStats {
-            load,
-            bvh: bvh_time,
-            triangles: tris.len() as u64 + kept_triangles,
-            degenerate_triangles: precision.zero_area + precision.collapsed + precision.out_of_range,
-            zero_area: precision.zero_area,
-            collapsed_in_f32: precision.collapsed,
-            beyond_f32_range: precision.out_of_range,
-            imprecise_triangles: precision.imprecise,
-        };
+        let stats = load_stats(load, bvh_time, tris.len() as u64 + kept_triangles, &precision);
         Scene {
             triangles: tris,
             shading,
@@ -223,6 +198,43 @@ impl Scene {
             warnings,
         }
     }
+}
+
+/// What loading cost and what it dropped or found imprecise.
+fn load_stats(load: Duration, bvh: Duration, triangles: u64, precision: &PrecisionTally) -> LoadStats {
+    LoadStats {
+        load,
+        bvh,
+        triangles,
+        degenerate_triangles: precision.zero_area + precision.collapsed + precision.out_of_range,
+        zero_area: precision.zero_area,
+        collapsed_in_f32: precision.collapsed,
+        beyond_f32_range: precision.out_of_range,
+        imprecise_triangles: precision.imprecise,
+    }
+}
+
+/// The render-space box around the flattened triangles and the kept instances' placements
+/// (zero for an empty scene).
+fn scene_bounds(
+    tris: &[Triangle],
+    instanced: Option<&crate::geometry::instanced::InstancedScene>,
+) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in tris {
+        for v in [t.v0, t.v1, t.v2] {
+            lo = lo.min(v.into());
+            hi = hi.max(v.into());
+        }
+    }
+    for p in instanced.iter().flat_map(|i| &i.placed) {
+        lo = lo.min(p.bounds.min.into());
+        hi = hi.max(p.bounds.max.into());
+    }
+    if tris.is_empty() && instanced.is_none() {
+        return (Vec3::ZERO, Vec3::ZERO);
+    }
+    (lo, hi)
 }
 
 impl Geometry {
