@@ -11,11 +11,8 @@ use crate::run_report::{RunReport, Timings};
 use crate::shadows_config::ShadowsConfig;
 use crate::threads::thread_pool_traced;
 use crate::{flags, memory, methods, profile, run_report, tile};
-use renderer::{
-    Frame, KeepInstances, LoadOptions, RenderSettings, Scene, SceneError, SceneFile, ShadowMethod,
-};
+use renderer::{Frame, KeepInstances, LoadOptions, RenderSettings, Scene, SceneError, SceneFile};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::time::Instant;
 
 /// `penumbra render` options (the contract's command line).
@@ -23,28 +20,9 @@ use std::time::Instant;
 pub struct RenderArgs {
     /// Scene file (TOML). Without one, the embedded default scene.
     pub scene: Option<PathBuf>,
-    /// Shadow method; overrides `[shadows].method`.
-    #[arg(long, value_parser = methods::value_parser())]
-    pub shadows: Option<String>,
-    /// Light samples per shading point; overrides `[shadows].samples` (each method's own
-    /// limit: 65536 for `traced`).
-    #[arg(long, allow_negative_numbers = true,
-          value_parser = flags::key_value(1..=renderer::methods::sample_stream::MAX_TRACED_SAMPLES))]
-    pub samples: Option<u32>,
-    /// Image width in pixels, 1..=16384; overrides `[image].width`.
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::key_value(renderer::load::scene_file::IMAGE_SIDE))]
-    pub width: Option<u32>,
-    /// Image height in pixels, 1..=16384; overrides `[image].height`.
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::key_value(renderer::load::scene_file::IMAGE_SIDE))]
-    pub height: Option<u32>,
-    /// Primary samples per pixel, 1..=4096 (1 = the pixel centre); overrides `[image].spp`.
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::key_value(renderer::load::scene_file::SPP))]
-    pub spp: Option<u32>,
-    /// Longest light path, counted as Mitsuba 3 counts it, 2..=64: 2 = direct light only, 5 =
-    /// three indirect bounces; overrides `[integrator].max_depth` (default: the scene file's,
-    /// else 5; every scene shipped here sets 2).
-    #[arg(long, allow_negative_numbers = true, value_parser = flags::depth_value)]
-    pub max_depth: Option<u32>,
+    /// The values its flags give for scene-file keys (and a study's code-only method).
+    #[command(flatten)]
+    pub keys: Overrides,
     /// Output PNG; the EXR and JSON report go beside it. Default: out/<scene-stem>.png.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -73,10 +51,6 @@ pub struct RenderArgs {
     /// bytes.
     #[arg(long, value_name = "K/N", value_parser = tile::TileSpec::parse)]
     pub tile: Option<tile::TileSpec>,
-    /// Code only (no flag): render with these method settings instead of the scene's, for
-    /// studies that switch what a scene file cannot (a plugin's code-only fields).
-    #[arg(skip)]
-    pub method: Option<Arc<dyn ShadowMethod>>,
     /// Code only (no flag): whether to keep instances unflattened, instead of the method's
     /// rule (kept only where the flattened scene does not fit). For tests that compare the
     /// two on scenes that fit.
@@ -121,16 +95,12 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
             if plan.tile.is_some() {
                 return tile::stage_tile_images(png, &frame, args.aov, &mut staged);
             }
-            let px = Pixels {
-                width: plan.width,
-                height: plan.height,
-                radiance: &frame.radiance,
-                visibility: &frame.visibility,
-            };
+            let [width, height] = plan.size();
+            let px = Pixels { width, height, radiance: &frame.radiance, visibility: &frame.visibility };
             let mut outputs = stage_images(png, &px, args.aov, &mut staged)?;
             if let Some(costs) = &frame.costs {
                 let missed = missed_pixels(&frame, costs.len());
-                outputs.extend(stage_profile(png, [plan.width, plan.height], costs, &missed, &mut staged)?);
+                outputs.extend(stage_profile(png, plan.size(), costs, &missed, &mut staged)?);
             }
             Ok::<_, CliError>(outputs)
         })?;
@@ -175,34 +145,22 @@ struct RenderPlan {
     scene_path: PathBuf,
     file: SceneFile,
     shadows: ShadowsConfig,
-    width: u32,
-    height: u32,
-    spp: u32,
-    max_depth: u32,
     png: PathBuf,
     /// `--tile`, and the fingerprint its report carries.
     tile: Option<(tile::TileSpec, String)>,
 }
 
-impl RenderArgs {
-    /// The values this command line gives for scene-file keys (and the code-only method).
-    fn overrides(&self) -> Overrides {
-        Overrides {
-            shadows: self.shadows.clone(),
-            samples: self.samples,
-            width: self.width,
-            height: self.height,
-            spp: self.spp,
-            max_depth: self.max_depth,
-            method: self.method.clone(),
-        }
+impl RenderPlan {
+    /// The image's width and height in pixels.
+    fn size(&self) -> [u32; 2] {
+        [self.file.image.width, self.file.image.height]
     }
 }
 
 /// The request `args` make, checked, and where its outputs go, before anything is loaded or
 /// rendered.
 fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
-    let request = Request::read(args.scene.as_deref(), &args.overrides())?;
+    let request = Request::read(args.scene.as_deref(), &args.keys)?;
     request.check_frame_size()?;
     let Request { scene_path, embedded, file, shadows, .. } = request;
     // Checked here, before anything is loaded: read again (with the machine's free memory)
@@ -211,7 +169,7 @@ fn plan_render(args: &RenderArgs) -> Result<RenderPlan, CliError> {
     let png = png_path(args, &scene_path)?;
     let (image, max_depth) = (&file.image, file.integrator.max_depth);
     let (width, height, spp) = (image.width, image.height, image.spp);
-    let mut plan = RenderPlan { scene_path, file, shadows, width, height, spp, max_depth, png, tile: None };
+    let mut plan = RenderPlan { scene_path, file, shadows, png, tile: None };
     if let Some(spec) = args.tile {
         spec.check(height, &plan.scene_path)?;
         let fingerprint = tile::fingerprint(&tile::FingerprintInputs {
@@ -262,16 +220,17 @@ fn render_frame(
 ) -> Result<Frame, CliError> {
     let mut methods: Vec<_> = scene.lights.iter().map(|_| plan.shadows.build()).collect();
     let memory_budget_bytes = memory::memory_budget_bytes()?;
+    let [width, height] = plan.size();
     let settings = RenderSettings {
-        width: plan.width,
-        height: plan.height,
-        spp: plan.spp,
+        width,
+        height,
+        spp: plan.file.image.spp,
         seed,
         memory_budget_bytes,
         profile,
-        max_depth: plan.max_depth,
+        max_depth: plan.file.integrator.max_depth,
     };
-    let rows = plan.tile.as_ref().map_or(0..plan.height, |(t, _)| t.rows(plan.height));
+    let rows = plan.tile.as_ref().map_or(0..height, |(t, _)| t.rows(height));
     renderer::render_rows(scene, &mut methods, &settings, rows, &|p| progress.report(p))
         .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()).into())
 }
@@ -291,10 +250,10 @@ fn build_report(
         scene: plan.scene_path.display().to_string(),
         method: plan.shadows.name().to_string(),
         samples: plan.shadows.samples,
-        width: plan.width,
-        height: plan.height,
-        spp: plan.spp,
-        max_depth: plan.max_depth,
+        width: plan.file.image.width,
+        height: plan.file.image.height,
+        spp: plan.file.image.spp,
+        max_depth: plan.file.integrator.max_depth,
         threads,
         seed,
         lights: scene.lights.len(),

@@ -16,21 +16,35 @@ pub const DEFAULT_SCENE: &str = include_str!("../scenes/default.toml");
 /// The name the default scene's errors and outputs go by.
 pub const DEFAULT_SCENE_NAME: &str = "scenes/default.toml";
 
-/// The command line's values for scene-file keys (each `None` leaves the file's).
-#[derive(Debug, Clone, Default)]
+/// The command line's values for scene-file keys (each `None` leaves the file's), the flags
+/// of `render` ([`crate::render::RenderArgs`] flattens them in).
+#[derive(Debug, Clone, Default, clap::Args)]
 pub struct Overrides {
-    /// `--shadows`: `[shadows].method`.
+    /// Shadow method; overrides `[shadows].method`.
+    #[arg(long, value_parser = crate::methods::value_parser())]
     pub shadows: Option<String>,
-    /// `--samples`: `[shadows].samples`.
+    /// Light samples per shading point; overrides `[shadows].samples` (each method's own
+    /// limit: 65536 for `traced`).
+    #[arg(long, allow_negative_numbers = true,
+          value_parser = crate::flags::key_value(1..=renderer::methods::sample_stream::MAX_TRACED_SAMPLES))]
     pub samples: Option<u32>,
-    /// `--width`, `--height`, `--spp`: `[image]`'s.
+    /// Image width in pixels, 1..=16384; overrides `[image].width`.
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::key_value(renderer::load::scene_file::IMAGE_SIDE))]
     pub width: Option<u32>,
+    /// Image height in pixels, 1..=16384; overrides `[image].height`.
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::key_value(renderer::load::scene_file::IMAGE_SIDE))]
     pub height: Option<u32>,
+    /// Primary samples per pixel, 1..=4096 (1 = the pixel centre); overrides `[image].spp`.
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::key_value(renderer::load::scene_file::SPP))]
     pub spp: Option<u32>,
-    /// `--max-depth`: `[integrator].max_depth`.
+    /// Longest light path, counted as Mitsuba 3 counts it, 2..=64: 2 = direct light only, 5 =
+    /// three indirect bounces; overrides `[integrator].max_depth` (default: the scene file's,
+    /// else 5; every scene shipped here sets 2).
+    #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::depth_value)]
     pub max_depth: Option<u32>,
     /// Code only (no flag): these settings in place of the chosen method's, for studies that
     /// switch what a scene file cannot (a plugin's code-only fields).
+    #[arg(skip)]
     pub method: Option<Arc<dyn ShadowMethod>>,
 }
 
@@ -89,7 +103,9 @@ impl Request {
             return Ok(Self { scene_path, embedded, file: as_written, shadows, overrides: list });
         }
         let relabel = |e| Override::relabel(&list, e);
-        let file = SceneFile::parse_with(&text, &scene_path, &list)?;
+        // A study's method alone changes no key: the file as written stands.
+        let file =
+            if list.is_empty() { as_written } else { SceneFile::parse_with(&text, &scene_path, &list)? };
         let method = overrides.method.clone();
         let shadows =
             ShadowsConfig::from_table_in(&file.shadows, &scene_path, crate::methods::METHODS, method)

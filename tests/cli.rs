@@ -516,11 +516,14 @@ fn flags_are_checked_with_the_scene_file_as_one_request() {
     use penumbra::{CliError, RenderArgs, run_render};
     let study = |method: Arc<dyn ShadowMethod>, samples: u32| RenderArgs {
         scene: Some(dir.join("ok.toml")),
+        keys: penumbra::request::Overrides {
+            samples: Some(samples),
+            width: Some(8),
+            height: Some(6),
+            method: Some(method),
+            ..Default::default()
+        },
         out: Some(dir.join("study/o.png")),
-        samples: Some(samples),
-        width: Some(8),
-        height: Some(6),
-        method: Some(method),
         quiet: true,
         ..Default::default()
     };

@@ -557,10 +557,13 @@ fn every_method_renders_kept_instances_as_flattened() {
         let out = dir.join(&format!("{method}-{keep:?}.png"));
         let args = penumbra::RenderArgs {
             scene: Some(scene.clone()),
-            shadows: Some(method.to_string()),
-            samples: Some(16),
-            width: Some(48),
-            height: Some(36),
+            keys: penumbra::request::Overrides {
+                shadows: Some(method.to_string()),
+                samples: Some(16),
+                width: Some(48),
+                height: Some(36),
+                ..Default::default()
+            },
             out: Some(out.clone()),
             aov: true,
             quiet: true,

@@ -19,9 +19,12 @@ fn render_small(scene: &str) -> (Vec<f32>, Vec<f32>) {
     let out = dir.join(format!("{stem}.png"));
     let args = RenderArgs {
         scene: Some(root.join("scenes/gltf").join(scene)),
-        samples: Some(16),
-        width: Some(64),
-        height: Some(48),
+        keys: penumbra::request::Overrides {
+            samples: Some(16),
+            width: Some(64),
+            height: Some(48),
+            ..Default::default()
+        },
         out: Some(out.clone()),
         aov: true,
         quiet: true,
@@ -144,12 +147,15 @@ fn every_shared_scene_path_traces_with_every_method_deterministically() {
                 let out = dir.join(format!("{method}-{threads}.png"));
                 let args = penumbra::RenderArgs {
                     scene: Some(path.clone()),
-                    shadows: Some(method.into()),
-                    samples: Some(16),
-                    width: Some(32),
-                    height: Some(24),
-                    spp: Some(2),
-                    max_depth: Some(5),
+                    keys: penumbra::request::Overrides {
+                        shadows: Some(method.into()),
+                        samples: Some(16),
+                        width: Some(32),
+                        height: Some(24),
+                        spp: Some(2),
+                        max_depth: Some(5),
+                        ..Default::default()
+                    },
                     threads: Some(threads),
                     out: Some(out.clone()),
                     quiet: true,

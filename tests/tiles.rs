@@ -10,6 +10,7 @@ use folders::temp_dir;
 mod tiny_scene;
 
 use penumbra::merge::{MergeArgs, run_merge};
+use penumbra::request::Overrides;
 use penumbra::run_report::RunReport;
 use penumbra::tile::TileSpec;
 use penumbra::{RenderArgs, run_render};
@@ -44,12 +45,15 @@ radiance = [1.0, 1.0, 1.0]
 fn args(scene: &Path, method: &str, max_depth: u32, out: PathBuf) -> RenderArgs {
     RenderArgs {
         scene: Some(scene.to_path_buf()),
-        shadows: Some(method.to_string()),
-        samples: Some(16),
-        width: Some(40),
-        height: Some(32),
-        spp: Some(4),
-        max_depth: Some(max_depth),
+        keys: Overrides {
+            shadows: Some(method.to_string()),
+            samples: Some(16),
+            width: Some(40),
+            height: Some(32),
+            spp: Some(4),
+            max_depth: Some(max_depth),
+            ..Overrides::default()
+        },
         out: Some(out),
         aov: true,
         quiet: true,
@@ -221,7 +225,11 @@ fn bad_sets_of_tiles_name_the_file_on_one_line_exit_2_and_write_nothing() {
     let scene = scene(&dir);
     let base = args(&scene, "traced", 2, dir.join("unused.png"));
     let t = render_tiles(&base, 3, &dir.join("t"));
-    let o = render_tiles(&RenderArgs { samples: Some(32), ..base.clone() }, 3, &dir.join("o"));
+    let o = render_tiles(
+        &RenderArgs { keys: Overrides { samples: Some(32), ..base.keys.clone() }, ..base.clone() },
+        3,
+        &dir.join("o"),
+    );
     // The same settings, another scene at the same path: the same fields, another
     // fingerprint.
     let original = read(&scene);

@@ -181,13 +181,16 @@ pub fn counters_kept<const K: usize>(
     let out = dir.join(format!("{stem}.png"));
     let args = RenderArgs {
         scene: Some(scene.to_path_buf()),
-        samples: Some(samples),
-        width: Some(width),
-        height: Some(height),
+        keys: penumbra::request::Overrides {
+            samples: Some(samples),
+            width: Some(width),
+            height: Some(height),
+            method: Some(method),
+            max_depth: paths_depth(scene),
+            ..Default::default()
+        },
         out: Some(out.clone()),
         quiet: true,
-        method: Some(method),
-        max_depth: paths_depth(scene),
         keep_instances: keep,
         ..Default::default()
     };

@@ -99,16 +99,18 @@ pub fn render_visibility_with(
     let out = dir.join(format!("{tag}-{}-{samples}-{seed}.png", method));
     let args = penumbra::RenderArgs {
         scene: Some(scene_path),
-        shadows: Some(method.to_string()),
-        method: settings,
-        samples: Some(samples),
+        keys: penumbra::request::Overrides {
+            shadows: Some(method.to_string()),
+            method: settings,
+            samples: Some(samples),
+            width: Some(size),
+            height: Some(size),
+            spp: Some(1),
+            // Direct light only: these renders hold the visibility of what the camera sees, and
+            // the methods' counters are then those of the primary hits alone.
+            max_depth: Some(2),
+        },
         seed,
-        width: Some(size),
-        height: Some(size),
-        spp: Some(1),
-        // Direct light only: these renders hold the visibility of what the camera sees, and
-        // the methods' counters are then those of the primary hits alone.
-        max_depth: Some(2),
         out: Some(out.clone()),
         aov: true,
         quiet: true,

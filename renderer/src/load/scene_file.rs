@@ -1,7 +1,7 @@
 //! The scene file (TOML), typed. Every table rejects unknown keys; every error names the
 //! file and the key. Values given outside the file (the command line's flags, [`Override`])
-//! are merged into its table before it is typed, so that the file and its overrides are
-//! checked once, by the same ranges in the same words. The `[shadows]` table is kept raw
+//! are merged into its table before it is typed, so that they are checked by the file's own
+//! checks, with the same ranges in the same words. The `[shadows]` table is kept raw
 //! here: only the CLI knows every shadow method, so it types that table itself (see
 //! `penumbra::shadows_config`).
 

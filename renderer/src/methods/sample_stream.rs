@@ -28,7 +28,7 @@ pub enum Culling {
     Leaves,
 }
 
-/// Most light samples per shading point `traced` takes (`Traced::prepare` refuses more).
+/// Most light samples per shading point `traced` takes ([`SampleStream::prepare`] refuses more).
 pub const MAX_TRACED_SAMPLES: u32 = 65536;
 
 /// The most samples in a row of strata: nx is at most the square root of
