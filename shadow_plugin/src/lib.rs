@@ -5,6 +5,7 @@
 //! per-ray baseline and oracle `depth_march` (retired from the CLI's registry, kept as a
 //! library), and the real-time baseline `pcss` (Fernando 2005).
 
+pub mod analytic;
 pub mod depth_map;
 pub mod depth_march;
 pub mod edge_table;

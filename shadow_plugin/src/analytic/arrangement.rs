@@ -1,0 +1,749 @@
+//! The 2D arrangement of projected edges over the light's visible domain, with the depth
+//! complexity on every piece: what `analytic` integrates (the region where D is lowest).
+//!
+//! Input: segments in light coordinates, each with its jump `D(left) - D(right)` (left of
+//! p0 -> p1), and the domain Ω, a convex polygon (the light's rectangle clipped by the
+//! shading horizon), counter-clockwise. Output: per piece of every segment (between its
+//! crossings with the others) the depth on both sides, and per piece of Ω's boundary the
+//! depth inside, all relative to one reference; the lowest, a point inside a face that has
+//! it (for the one ray that settles the constant), and the boundary of that level's region
+//! as oriented pieces to integrate over.
+//!
+//! No faces are assembled: the depth is propagated along each segment through its sorted
+//! crossings (each crossing computed once and shared by both segments, so the boundary
+//! closes), across crossings to the other segment, around shared vertices (ends with
+//! bit-identical coordinates, sorted by angle) and along Ω's boundary; a component reached
+//! by none of these is anchored by counting along one path from the boundary. Every
+//! topological decision (which side, whether two segments meet, the order round a vertex)
+//! is an exact orient2d (Shewchuk's adaptive predicate); the crossing points are rounded
+//! and used only to integrate, where their rounding costs O(ε) in V.
+//!
+//! Degenerate input (collinear overlapping segments, an end exactly on another segment, a
+//! lone end inside Ω) is refused ([`Failure::Degenerate`]); a propagation that reaches a
+//! value twice differently, or a loop of jumps that does not close, is refused as
+//! [`Failure::Inconsistent`]: the caller answers such a point another way and counts it.
+
+use glam::DVec2;
+
+/// One projected edge: depth jumps by `jump` = D(left) - D(right) across it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Segment {
+    pub p0: DVec2,
+    pub p1: DVec2,
+    pub jump: i32,
+}
+
+/// Why a point's arrangement is not trusted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Failure {
+    /// Collinear overlap, a T-junction, a lone end inside the domain, an end on a side.
+    Degenerate,
+    /// Two paths gave one piece different depths, or a loop of jumps did not close.
+    Inconsistent,
+}
+
+/// Most sides of the domain: the rectangle clipped by one line has at most five.
+pub const MAX_DOMAIN: usize = 8;
+
+/// Sign of orient2d(a, b, c): positive where a, b, c turn counter-clockwise. Exact.
+#[inline]
+pub fn orient(a: DVec2, b: DVec2, c: DVec2) -> i8 {
+    let p = |v: DVec2| robust::Coord { x: v.x, y: v.y };
+    let d = robust::orient2d(p(a), p(b), p(c));
+    (d > 0.0) as i8 - (d < 0.0) as i8
+}
+
+/// A clipped segment with where its ends lie on the domain's boundary (`s` = side index +
+/// position along it, or NaN for an end inside).
+#[derive(Debug, Clone, Copy)]
+struct Clipped {
+    seg: Segment,
+    s: [f64; 2],
+}
+
+/// One crossing of segments `i` and `j`, at `point`; `ti`, `tj` its parameters along them.
+#[derive(Debug, Clone, Copy)]
+struct Crossing {
+    i: u32,
+    j: u32,
+    ti: f64,
+    tj: f64,
+    point: DVec2,
+    /// i's start lies on j's right, j's start on i's right.
+    i0_right_of_j: bool,
+    j0_right_of_i: bool,
+}
+
+/// A segment end on the boundary: its position, segment, and which end.
+#[derive(Debug, Clone, Copy)]
+struct BoundaryEnd {
+    s: f64,
+    p: DVec2,
+    seg: u32,
+    end: u8,
+}
+
+/// Reused buffers (one per thread): an arrangement allocates only while it grows.
+#[derive(Debug, Default)]
+pub struct Arrangement {
+    domain: Vec<DVec2>,
+    segs: Vec<Clipped>,
+    crossings: Vec<Crossing>,
+    /// Per segment, its crossings sorted along it (CSR: `starts`, `list`), and the depth
+    /// change on its right before each piece (`cum`, one longer per segment than its list).
+    starts: Vec<u32>,
+    fill: Vec<u32>,
+    list: Vec<u32>,
+    cum: Vec<i32>,
+    /// Per crossing, its index in i's list and in j's list.
+    pos: Vec<[u32; 2]>,
+    /// Per segment: D on its right at its start, relative to the reference.
+    base: Vec<Option<i32>>,
+    /// Interior ends sorted by position (vertex groups), and per segment end its group.
+    ends: Vec<(u64, u64, u32, u8)>,
+    group_of: Vec<[u32; 2]>,
+    group_starts: Vec<u32>,
+    group_done: Vec<bool>,
+    boundary: Vec<BoundaryEnd>,
+    /// D inside the boundary piece after each boundary end (the whole boundary if none).
+    boundary_rel: Vec<i32>,
+    whole_boundary_rel: i32,
+    queue: Vec<u32>,
+    order: Vec<(f64, u32)>,
+    sectors: Vec<(u32, u8)>,
+    /// The lowest relative depth and a point inside a face that has it.
+    pub min_rel: i32,
+    pub target: DVec2,
+}
+
+impl Arrangement {
+    /// Builds the arrangement of `segments` over `domain` (convex, counter-clockwise, at
+    /// most [`MAX_DOMAIN`] corners, non-degenerate), with depths relative to the inside of
+    /// the first boundary piece; then [`Arrangement::min_rel`] and [`Arrangement::target`].
+    pub fn build(&mut self, domain: &[DVec2], segments: &[Segment]) -> Result<(), Failure> {
+        self.domain.clear();
+        self.domain.extend_from_slice(domain);
+        self.clip_all(segments)?;
+        self.find_crossings()?;
+        self.sort_crossings();
+        self.group_vertices()?;
+        self.walk_boundary()?;
+        self.propagate()?;
+        self.find_min();
+        Ok(())
+    }
+
+    /// Each segment clipped to the domain (Liang-Barsky on its sides), with the sides its
+    /// clipped ends lie on; pieces outside or of zero length are dropped.
+    fn clip_all(&mut self, segments: &[Segment]) -> Result<(), Failure> {
+        self.segs.clear();
+        let n = self.domain.len();
+        for seg in segments {
+            let (mut t0, mut t1) = (0.0f64, 1.0f64);
+            let (mut side0, mut side1) = (usize::MAX, usize::MAX);
+            let mut outside = false;
+            for k in 0..n {
+                let (a, b) = (self.domain[k], self.domain[(k + 1) % n]);
+                // Inside: orient(a, b, x) >= 0 (the domain is counter-clockwise).
+                let (o0, o1) = (orient(a, b, seg.p0), orient(a, b, seg.p1));
+                if o0 <= 0 && o1 <= 0 {
+                    // Both ends on or beyond this side's line: nothing inside (or it runs
+                    // along the side, which is degenerate unless it is outside).
+                    if o0 == 0 && o1 == 0 && seg.p0 != seg.p1 {
+                        return Err(Failure::Degenerate);
+                    }
+                    outside = true;
+                    break;
+                }
+                let e = b - a;
+                let g0 = e.perp_dot(seg.p0 - a);
+                let g1 = e.perp_dot(seg.p1 - a);
+                if o0 <= 0 {
+                    let t = if o0 == 0 { 0.0 } else { g0 / (g0 - g1) };
+                    if t >= t0 {
+                        (t0, side0) = (t, k);
+                    }
+                } else if o1 <= 0 {
+                    let t = if o1 == 0 { 1.0 } else { g0 / (g0 - g1) };
+                    if t <= t1 {
+                        (t1, side1) = (t, k);
+                    }
+                }
+            }
+            if outside || t0 >= t1 {
+                continue;
+            }
+            let at = |t: f64| {
+                if t == 0.0 {
+                    seg.p0
+                } else if t == 1.0 {
+                    seg.p1
+                } else {
+                    seg.p0 + t * (seg.p1 - seg.p0)
+                }
+            };
+            let (p0, p1) = (at(t0), at(t1));
+            if p0 == p1 {
+                continue;
+            }
+            let s0 = if side0 == usize::MAX { f64::NAN } else { self.side_position(side0, p0) };
+            let s1 = if side1 == usize::MAX { f64::NAN } else { self.side_position(side1, p1) };
+            self.segs.push(Clipped { seg: Segment { p0, p1, jump: seg.jump }, s: [s0, s1] });
+        }
+        Ok(())
+    }
+
+    /// The boundary coordinate of `p` on side `k`: k plus its fraction along the side.
+    fn side_position(&self, k: usize, p: DVec2) -> f64 {
+        let n = self.domain.len();
+        let (a, b) = (self.domain[k], self.domain[(k + 1) % n]);
+        let e = b - a;
+        let s = k as f64 + ((p - a).dot(e) / e.length_squared()).clamp(0.0, 1.0);
+        // The last side's end is the first corner.
+        if s >= n as f64 { 0.0 } else { s }
+    }
+
+    /// Every crossing of two segments, by a sweep over their x-ranges; degenerate contacts
+    /// are refused.
+    fn find_crossings(&mut self) -> Result<(), Failure> {
+        self.crossings.clear();
+        self.order.clear();
+        self.order.extend(self.segs.iter().enumerate().map(|(i, c)| (c.seg.p0.x.min(c.seg.p1.x), i as u32)));
+        self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        for x in 0..self.order.len() {
+            let i = self.order[x].1 as usize;
+            let a = self.segs[i].seg;
+            let (ax1, ay0, ay1) = (a.p0.x.max(a.p1.x), a.p0.y.min(a.p1.y), a.p0.y.max(a.p1.y));
+            for y in x + 1..self.order.len() {
+                let (bx0, j) = self.order[y];
+                if bx0 > ax1 {
+                    break;
+                }
+                let b = self.segs[j as usize].seg;
+                if b.p0.y.max(b.p1.y) < ay0 || b.p0.y.min(b.p1.y) > ay1 {
+                    continue;
+                }
+                if let Some(c) = crossing(i as u32, &a, j, &b)? {
+                    self.crossings.push(c);
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Each segment's crossings sorted along it, their positions, and the running depth
+    /// change on its right.
+    fn sort_crossings(&mut self) {
+        let n = self.segs.len();
+        self.starts.clear();
+        self.starts.resize(n + 1, 0);
+        for c in &self.crossings {
+            self.starts[c.i as usize + 1] += 1;
+            self.starts[c.j as usize + 1] += 1;
+        }
+        for k in 0..n {
+            self.starts[k + 1] += self.starts[k];
+        }
+        self.list.clear();
+        self.list.resize(self.starts[n] as usize, 0);
+        let mut fill = std::mem::take(&mut self.fill);
+        fill.clear();
+        fill.extend_from_slice(&self.starts[..n]);
+        for (id, c) in self.crossings.iter().enumerate() {
+            for s in [c.i, c.j] {
+                self.list[fill[s as usize] as usize] = id as u32;
+                fill[s as usize] += 1;
+            }
+        }
+        self.fill = fill;
+        let param = |c: &Crossing, s: u32| if c.i == s { c.ti } else { c.tj };
+        self.pos.clear();
+        self.pos.resize(self.crossings.len(), [0, 0]);
+        self.cum.clear();
+        self.cum.resize(self.starts[n] as usize + n, 0);
+        for s in 0..n {
+            let (lo, hi) = (self.starts[s] as usize, self.starts[s + 1] as usize);
+            let crossings = &self.crossings;
+            self.list[lo..hi].sort_unstable_by(|&x, &y| {
+                param(&crossings[x as usize], s as u32).total_cmp(&param(&crossings[y as usize], s as u32))
+            });
+            let mut d = 0;
+            let cum0 = lo + s;
+            self.cum[cum0] = 0;
+            for (k, &id) in self.list[lo..hi].iter().enumerate() {
+                let c = &self.crossings[id as usize];
+                // Crossing the other segment from its right to its left raises D by its jump.
+                let (other, start_right) =
+                    if c.i == s as u32 { (c.j, c.i0_right_of_j) } else { (c.i, c.j0_right_of_i) };
+                let jump = self.segs[other as usize].seg.jump;
+                d += if start_right { jump } else { -jump };
+                self.cum[cum0 + k + 1] = d;
+                self.pos[id as usize][(c.i != s as u32) as usize] = k as u32;
+            }
+        }
+    }
+
+    /// Groups the ends inside the domain by their exact position: shared vertices.
+    fn group_vertices(&mut self) -> Result<(), Failure> {
+        self.ends.clear();
+        for (k, c) in self.segs.iter().enumerate() {
+            for end in 0..2u8 {
+                if c.s[end as usize].is_nan() {
+                    let p = if end == 0 { c.seg.p0 } else { c.seg.p1 };
+                    self.ends.push((p.x.to_bits(), p.y.to_bits(), k as u32, end));
+                }
+            }
+        }
+        self.ends.sort_unstable();
+        self.group_of.clear();
+        self.group_of.resize(self.segs.len(), [u32::MAX; 2]);
+        self.group_starts.clear();
+        let mut k = 0;
+        while k < self.ends.len() {
+            let mut m = k + 1;
+            while m < self.ends.len() && self.ends[m].0 == self.ends[k].0 && self.ends[m].1 == self.ends[k].1
+            {
+                m += 1;
+            }
+            // A lone end: its jump cannot close round it (an end on another segment).
+            if m - k < 2 {
+                return Err(Failure::Degenerate);
+            }
+            let g = self.group_starts.len() as u32;
+            self.group_starts.push(k as u32);
+            for e in &self.ends[k..m] {
+                self.group_of[e.2 as usize][e.3 as usize] = g;
+            }
+            k = m;
+        }
+        self.group_starts.push(self.ends.len() as u32);
+        self.group_done.clear();
+        self.group_done.resize(self.group_starts.len() - 1, false);
+        Ok(())
+    }
+
+    /// The ends on the boundary in counter-clockwise order, and D inside each boundary
+    /// piece relative to the first; the jumps round the whole boundary must sum to 0.
+    fn walk_boundary(&mut self) -> Result<(), Failure> {
+        self.boundary.clear();
+        for (k, c) in self.segs.iter().enumerate() {
+            for end in 0..2u8 {
+                let s = c.s[end as usize];
+                if !s.is_nan() {
+                    let p = if end == 0 { c.seg.p0 } else { c.seg.p1 };
+                    self.boundary.push(BoundaryEnd { s, p, seg: k as u32, end });
+                }
+            }
+        }
+        self.boundary.sort_unstable_by(|a, b| a.s.total_cmp(&b.s));
+        self.boundary_rel.clear();
+        self.whole_boundary_rel = 0;
+        let mut d = 0;
+        for e in &self.boundary {
+            // Arriving (end 1): the piece after is on the segment's left.
+            let jump = self.segs[e.seg as usize].seg.jump;
+            d += if e.end == 1 { jump } else { -jump };
+            self.boundary_rel.push(d);
+        }
+        if d != 0 {
+            return Err(Failure::Inconsistent);
+        }
+        Ok(())
+    }
+
+    /// D on the right of piece `k` of segment `s` (given its base).
+    #[inline]
+    fn right(&self, s: usize, base: i32, k: usize) -> i32 {
+        base + self.cum[self.starts[s] as usize + s + k]
+    }
+
+    fn pieces(&self, s: usize) -> usize {
+        (self.starts[s + 1] - self.starts[s]) as usize + 1
+    }
+
+    /// Sets a segment's base, or checks it against the one it has.
+    fn assign(&mut self, s: usize, base: i32) -> Result<(), Failure> {
+        match self.base[s] {
+            Some(b) if b != base => Err(Failure::Inconsistent),
+            Some(_) => Ok(()),
+            None => {
+                self.base[s] = Some(base);
+                self.queue.push(s as u32);
+                Ok(())
+            }
+        }
+    }
+
+    /// Every segment's base: from the boundary, through crossings and shared vertices, and
+    /// by counting for components reached by none.
+    fn propagate(&mut self) -> Result<(), Failure> {
+        let n = self.segs.len();
+        self.base.clear();
+        self.base.resize(n, None);
+        self.queue.clear();
+        for e in 0..self.boundary.len() {
+            let b = self.boundary[e];
+            let after = self.boundary_rel[e];
+            let before = after
+                - if b.end == 1 {
+                    self.segs[b.seg as usize].seg.jump
+                } else {
+                    -self.segs[b.seg as usize].seg.jump
+                };
+            let s = b.seg as usize;
+            let base = if b.end == 1 {
+                // Right side of the last piece = the piece before.
+                before - self.cum[self.starts[s] as usize + s + self.pieces(s) - 1]
+            } else {
+                after
+            };
+            self.assign(s, base)?;
+        }
+        loop {
+            while let Some(s) = self.queue.pop() {
+                self.spread(s as usize)?;
+            }
+            match self.base.iter().position(Option::is_none) {
+                None => return Ok(()),
+                Some(s) => {
+                    let base = self.count_anchor(s)?;
+                    self.assign(s, base)?;
+                }
+            }
+        }
+    }
+
+    /// From segment `s` (its base known) to the segments crossing it and sharing its ends.
+    fn spread(&mut self, s: usize) -> Result<(), Failure> {
+        let base = self.base[s].expect("spread only known segments");
+        let jump = self.segs[s].seg.jump;
+        for k in self.starts[s] as usize..self.starts[s + 1] as usize {
+            let id = self.list[k] as usize;
+            let c = self.crossings[id];
+            let (me_i, other) = if c.i == s as u32 { (true, c.j as usize) } else { (false, c.i as usize) };
+            let (my_pos, other_pos) =
+                if me_i { (self.pos[id][0], self.pos[id][1]) } else { (self.pos[id][1], self.pos[id][0]) };
+            // The other's right side just before the crossing: on my side where the other
+            // starts, and before or after the crossing along me as my start lies on its right.
+            let (other_start_right_of_me, my_start_right_of_other) =
+                if me_i { (c.j0_right_of_i, c.i0_right_of_j) } else { (c.i0_right_of_j, c.j0_right_of_i) };
+            let piece = if my_start_right_of_other { my_pos } else { my_pos + 1 } as usize;
+            let right = self.right(s, base, piece);
+            let d = if other_start_right_of_me { right } else { right + jump };
+            let other_base = d - self.cum[self.starts[other] as usize + other + other_pos as usize];
+            self.assign(other, other_base)?;
+        }
+        for end in 0..2 {
+            let g = self.group_of[s][end];
+            if g != u32::MAX && !self.group_done[g as usize] {
+                self.group_done[g as usize] = true;
+                self.around_vertex(g as usize)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Round a shared vertex: its ends sorted by angle (exactly), the depth stepped sector
+    /// to sector; every member's base from the one known.
+    fn around_vertex(&mut self, g: usize) -> Result<(), Failure> {
+        let (lo, hi) = (self.group_starts[g] as usize, self.group_starts[g + 1] as usize);
+        let v = {
+            let e = self.ends[lo];
+            DVec2::new(f64::from_bits(e.0), f64::from_bits(e.1))
+        };
+        let mut sectors = std::mem::take(&mut self.sectors);
+        sectors.clear();
+        sectors.extend(self.ends[lo..hi].iter().map(|e| (e.2, e.3)));
+        let other = |segs: &[Clipped], (s, end): (u32, u8)| {
+            let c = &segs[s as usize].seg;
+            if end == 0 { c.p1 } else { c.p0 }
+        };
+        let upper = |q: DVec2| q.y > v.y || (q.y == v.y && q.x > v.x);
+        let segs = &self.segs;
+        let mut degenerate = false;
+        sectors.sort_by(|&a, &b| {
+            let (qa, qb) = (other(segs, a), other(segs, b));
+            match (upper(qa), upper(qb)) {
+                (true, false) => std::cmp::Ordering::Less,
+                (false, true) => std::cmp::Ordering::Greater,
+                _ => match orient(v, qa, qb) {
+                    1 => std::cmp::Ordering::Less,
+                    -1 => std::cmp::Ordering::Greater,
+                    _ => {
+                        degenerate |= a != b;
+                        std::cmp::Ordering::Equal
+                    }
+                },
+            }
+        });
+        if degenerate {
+            self.sectors = sectors;
+            return Err(Failure::Degenerate);
+        }
+        // Sector m lies after member m (counter-clockwise); crossing an outgoing member
+        // counter-clockwise goes from its right to its left.
+        let step = |segs: &[Clipped], (s, end): (u32, u8)| {
+            let j = segs[s as usize].seg.jump;
+            if end == 0 { j } else { -j }
+        };
+        let total: i32 = sectors.iter().map(|&m| step(&self.segs, m)).sum();
+        if total != 0 {
+            self.sectors = sectors;
+            return Err(Failure::Inconsistent);
+        }
+        // Relative sector depths: sector m = sum of steps of members 0..=m.
+        let mut known = None;
+        let mut d = 0;
+        for &(s, end) in sectors.iter() {
+            let before = d;
+            d += step(&self.segs, (s, end));
+            if let Some(base) = self.base[s as usize] {
+                // Its right side's depth, relative: outgoing -> sector before; incoming -> after.
+                let right_rel = if end == 0 { before } else { d };
+                let piece = if end == 0 { 0 } else { self.pieces(s as usize) - 1 };
+                known = Some(self.right(s as usize, base, piece) - right_rel);
+                break;
+            }
+        }
+        let offset = known.expect("a vertex is reached from one of its members");
+        let mut d = 0;
+        for &(s, end) in sectors.iter() {
+            let before = d;
+            d += step(&self.segs, (s, end));
+            let right_rel = if end == 0 { before } else { d };
+            let piece = if end == 0 { 0 } else { self.pieces(s as usize) - 1 };
+            let base = offset + right_rel - self.cum[self.starts[s as usize] as usize + s as usize + piece];
+            if let Err(f) = self.assign(s as usize, base) {
+                self.sectors = sectors;
+                return Err(f);
+            }
+        }
+        self.sectors = sectors;
+        Ok(())
+    }
+
+    /// A base for segment `s` counted along one path from the middle of the longest
+    /// boundary piece to the middle of one of its pieces: the depths of the segments the
+    /// path crosses, summed. A path that touches an end or runs along a segment is tried
+    /// at the segment's other pieces; none clean is degenerate.
+    fn count_anchor(&self, s: usize) -> Result<i32, Failure> {
+        let (from, rel) = self.longest_boundary_point();
+        let seg = self.segs[s].seg;
+        for k in 0..self.pieces(s) {
+            let (a, b) = self.piece_ends(s, k);
+            let to = 0.5 * (a + b);
+            if let Some(d) = self.count_path(from, to, s) {
+                let from_side = orient(seg.p0, seg.p1, from);
+                if from_side == 0 {
+                    return Err(Failure::Degenerate);
+                }
+                // D on the side of `s` facing `from`, at its piece k.
+                let right = if from_side > 0 { rel + d - seg.jump } else { rel + d };
+                return Ok(right - self.cum[self.starts[s] as usize + s + k]);
+            }
+        }
+        Err(Failure::Degenerate)
+    }
+
+    /// The depth change along the open path from -> to over every segment but `skip`, or
+    /// `None` where the path touches an end or runs through a crossing point.
+    fn count_path(&self, from: DVec2, to: DVec2, skip: usize) -> Option<i32> {
+        let mut d = 0;
+        for (j, c) in self.segs.iter().enumerate() {
+            if j == skip {
+                continue;
+            }
+            let (p, q) = (c.seg.p0, c.seg.p1);
+            let (o1, o2) = (orient(p, q, from), orient(p, q, to));
+            let (o3, o4) = (orient(from, to, p), orient(from, to, q));
+            if o1 * o2 > 0 || o3 * o4 > 0 {
+                continue;
+            }
+            if o1 == 0 || o2 == 0 || o3 == 0 || o4 == 0 {
+                return None;
+            }
+            d += if o1 < 0 { c.seg.jump } else { -c.seg.jump };
+        }
+        Some(d)
+    }
+
+    /// The middle of the longest boundary piece, and D inside it.
+    fn longest_boundary_point(&self) -> (DVec2, i32) {
+        let mut best = (f64::NEG_INFINITY, DVec2::ZERO, 0);
+        self.for_boundary_pieces(|a, b, rel| {
+            let len = (b - a).length();
+            if len > best.0 {
+                best = (len, 0.5 * (a + b), rel);
+            }
+        });
+        (best.1, best.2)
+    }
+
+    /// Piece `k` of segment `s`: its start and end points.
+    fn piece_ends(&self, s: usize, k: usize) -> (DVec2, DVec2) {
+        let seg = self.segs[s].seg;
+        let (lo, n) = (self.starts[s] as usize, self.pieces(s));
+        let point = |m: usize| self.crossings[self.list[lo + m] as usize].point;
+        let a = if k == 0 { seg.p0 } else { point(k - 1) };
+        let b = if k + 1 == n { seg.p1 } else { point(k) };
+        (a, b)
+    }
+
+    /// Every straight piece of the boundary, counter-clockwise (split at the domain's
+    /// corners and at the segments' ends, whose own points are used), with D inside it.
+    fn for_boundary_pieces(&self, mut f: impl FnMut(DVec2, DVec2, i32)) {
+        let n = self.domain.len();
+        let m = self.boundary.len();
+        if m == 0 {
+            for k in 0..n {
+                f(self.domain[k], self.domain[(k + 1) % n], self.whole_boundary_rel);
+            }
+            return;
+        }
+        for e in 0..m {
+            let (from, to) = (self.boundary[e], self.boundary[(e + 1) % m]);
+            let rel = self.boundary_rel[e];
+            let end = if e + 1 == m { to.s + n as f64 } else { to.s };
+            let (mut a, mut corner) = (from.p, from.s.floor() + 1.0);
+            while corner < end {
+                let c = self.domain[corner as usize % n];
+                f(a, c, rel);
+                (a, corner) = (c, corner + 1.0);
+            }
+            f(a, to.p, rel);
+        }
+    }
+
+    /// The lowest depth over every piece of positive length, and a point inside a face with
+    /// it: beside the middle of its longest piece, a quarter of the way to the nearest
+    /// other segment.
+    fn find_min(&mut self) {
+        let mut min = i32::MAX;
+        let mut best = (f64::NEG_INFINITY, DVec2::ZERO, DVec2::ZERO);
+        let mut consider = |rel: i32, a: DVec2, b: DVec2, inward_left: bool| {
+            let len = (b - a).length();
+            if len <= 0.0 {
+                return;
+            }
+            if rel < min || (rel == min && len > best.0) {
+                min = rel;
+                let d = (b - a) / len;
+                let normal = if inward_left { d.perp() } else { -d.perp() };
+                best = (len, 0.5 * (a + b), normal);
+            }
+        };
+        self.for_boundary_pieces(|a, b, rel| consider(rel, a, b, true));
+        for s in 0..self.segs.len() {
+            let base = self.base[s].expect("every segment has its base");
+            let jump = self.segs[s].seg.jump;
+            for k in 0..self.pieces(s) {
+                let (a, b) = self.piece_ends(s, k);
+                let right = self.right(s, base, k);
+                consider(right + jump, a, b, true);
+                consider(right, a, b, false);
+            }
+        }
+        // The nearest other segment from the piece's middle (and the boundary's lines).
+        let (len, mid, normal) = best;
+        let mut room = 0.5 * len;
+        for c in &self.segs {
+            let dist = distance_to_segment(mid, c.seg.p0, c.seg.p1);
+            if dist > 0.0 {
+                room = room.min(dist);
+            }
+        }
+        let n = self.domain.len();
+        for k in 0..n {
+            let dist = distance_to_segment(mid, self.domain[k], self.domain[(k + 1) % n]);
+            if dist > 0.0 {
+                room = room.min(dist);
+            }
+        }
+        self.min_rel = min;
+        self.target = mid + 0.25 * room * normal;
+    }
+
+    /// The oriented pieces bounding the region of depth `level` (counter-clockwise round
+    /// it: the region on their left), each given to `f` once.
+    pub fn boundary_of(&self, level: i32, mut f: impl FnMut(DVec2, DVec2)) {
+        self.for_boundary_pieces(|a, b, rel| {
+            if rel == level {
+                f(a, b);
+            }
+        });
+        for s in 0..self.segs.len() {
+            let base = self.base[s].expect("every segment has its base");
+            let jump = self.segs[s].seg.jump;
+            for k in 0..self.pieces(s) {
+                let right = self.right(s, base, k);
+                let (l, r) = (right + jump == level, right == level);
+                if l != r {
+                    let (a, b) = self.piece_ends(s, k);
+                    if l { f(a, b) } else { f(b, a) }
+                }
+            }
+        }
+    }
+
+    /// Counters: segments inside the domain, crossings, pieces.
+    pub fn sizes(&self) -> (usize, usize, usize) {
+        (self.segs.len(), self.crossings.len(), self.segs.len() + 2 * self.crossings.len())
+    }
+}
+
+/// The crossing of segments a (index i) and b (index j), `None` where they do not meet or
+/// meet only at a shared end; degenerate contacts are refused.
+fn crossing(i: u32, a: &Segment, j: u32, b: &Segment) -> Result<Option<Crossing>, Failure> {
+    let (o1, o2) = (orient(a.p0, a.p1, b.p0), orient(a.p0, a.p1, b.p1));
+    if o1 * o2 > 0 {
+        return Ok(None);
+    }
+    let (o3, o4) = (orient(b.p0, b.p1, a.p0), orient(b.p0, b.p1, a.p1));
+    if o3 * o4 > 0 {
+        return Ok(None);
+    }
+    if o1 != 0 && o2 != 0 && o3 != 0 && o4 != 0 {
+        // A proper crossing; its parameters from the side distances (f64, rounded).
+        let e = a.p1 - a.p0;
+        let f = b.p1 - b.p0;
+        let (ga0, ga1) = (f.perp_dot(a.p0 - b.p0), f.perp_dot(a.p1 - b.p0));
+        let ti = (ga0 / (ga0 - ga1)).clamp(0.0, 1.0);
+        let (gb0, gb1) = (e.perp_dot(b.p0 - a.p0), e.perp_dot(b.p1 - a.p0));
+        let tj = (gb0 / (gb0 - gb1)).clamp(0.0, 1.0);
+        return Ok(Some(Crossing {
+            i,
+            j,
+            ti,
+            tj,
+            point: a.p0 + ti * e,
+            i0_right_of_j: o3 < 0,
+            j0_right_of_i: o1 < 0,
+        }));
+    }
+    // Touching: allowed only at a shared end of two segments not on one line.
+    let shared = [a.p0, a.p1].iter().any(|p| *p == b.p0 || *p == b.p1);
+    let collinear = o1 == 0 && o2 == 0;
+    if shared && !collinear {
+        return Ok(None);
+    }
+    if collinear {
+        // Overlapping along the line (beyond a shared end point) is degenerate.
+        let d = a.p1 - a.p0;
+        let (s0, s1) = ((b.p0 - a.p0).dot(d), (b.p1 - a.p0).dot(d));
+        let (lo, hi) = (s0.min(s1), s0.max(s1));
+        if hi <= 0.0 || lo >= d.length_squared() {
+            return Ok(None);
+        }
+    }
+    Err(Failure::Degenerate)
+}
+
+fn distance_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    let d = b - a;
+    let t = ((p - a).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+    (p - (a + t * d)).length()
+}
+
+#[cfg(test)]
+#[path = "arrangement_tests.rs"]
+mod tests;
