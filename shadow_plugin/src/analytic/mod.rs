@@ -2,3 +2,4 @@
 //! from the occluders' silhouette edges.
 
 pub mod arrangement;
+pub mod lambert;

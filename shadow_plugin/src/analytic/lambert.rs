@@ -1,0 +1,153 @@
+//! Lambert's edge terms on the light's plane, seen from a shading point: the domain the
+//! point can see (the light's rectangle above its shading horizon) in light coordinates,
+//! and the term of any straight piece of it. Summed round a region (counter-clockwise in
+//! light coordinates), the terms give twice its cosine-weighted solid angle, up to one sign
+//! shared by every region of the point: V is a ratio of two such sums.
+//!
+//! In f64, relative to the point (lengths in the point's own distance to the light, so that
+//! a scene 1e-3 m or 1e5 m across keeps its digits); the angle by atan2(|a x b|, a . b),
+//! which keeps tiny pieces accurate where acos would not.
+
+use super::arrangement::MAX_DOMAIN;
+use glam::{DVec2, DVec3};
+use renderer::RectLight;
+
+/// The light's plane seen from one point.
+#[derive(Debug, Clone, Copy)]
+pub struct LightPlane {
+    /// Light point (0, 0) relative to the point, and the light's edges, in the point's unit.
+    corner: DVec3,
+    u: DVec3,
+    v: DVec3,
+    /// The shading normal.
+    n: DVec3,
+}
+
+impl LightPlane {
+    pub fn new(light: &RectLight, p: DVec3, n: DVec3) -> LightPlane {
+        let (c, u, v) = (light.center.as_dvec3(), light.u.as_dvec3(), light.v.as_dvec3());
+        let corner = c - 0.5 * (u + v) - p;
+        let unit = match (c - p).length() {
+            d if d > 0.0 && d.is_finite() => d,
+            _ => 1.0,
+        };
+        LightPlane { corner: corner / unit, u: u / unit, v: v / unit, n }
+    }
+
+    /// The vector from the point to light point `q` (light coordinates).
+    #[inline]
+    pub fn at(&self, q: DVec2) -> DVec3 {
+        self.corner + q.x * self.u + q.y * self.v
+    }
+
+    /// Lambert's term of the straight piece a -> b: angle(A, B) n . unit(A x B).
+    #[inline]
+    pub fn edge_term(&self, a: DVec2, b: DVec2) -> f64 {
+        let (va, vb) = (self.at(a), self.at(b));
+        let c = va.cross(vb);
+        let len = c.length();
+        if len > 0.0 { len.atan2(va.dot(vb)) * self.n.dot(c) / len } else { 0.0 }
+    }
+
+    /// The part of the light's rectangle above the shading horizon (n . (y - p) >= 0), in
+    /// light coordinates, counter-clockwise, without repeated corners: its corners in
+    /// `out`, their count returned (under 3: nothing of the light is above).
+    pub fn domain(&self, out: &mut [DVec2; MAX_DOMAIN]) -> usize {
+        let square = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
+        let h = |q: DVec2| self.n.dot(self.at(q));
+        let mut m = 0;
+        let mut push = |q: DVec2, out: &mut [DVec2; MAX_DOMAIN]| {
+            if m == 0 || out[m - 1] != q {
+                out[m] = q;
+                m += 1;
+            }
+        };
+        for k in 0..4 {
+            let (a, b) = (square[k], square[(k + 1) % 4]);
+            let (ha, hb) = (h(a), h(b));
+            if ha >= 0.0 {
+                push(a, out);
+            }
+            if (ha >= 0.0) != (hb >= 0.0) {
+                let t = ha / (ha - hb);
+                let q = if t <= 0.0 {
+                    a
+                } else if t >= 1.0 {
+                    b
+                } else {
+                    a + t * (b - a)
+                };
+                push(q, out);
+            }
+        }
+        if m > 1 && out[m - 1] == out[0] {
+            m -= 1;
+        }
+        m
+    }
+
+    /// The sum of the terms round a polygon (light coordinates, in order).
+    pub fn polygon_sum(&self, corners: &[DVec2]) -> f64 {
+        let n = corners.len();
+        (0..n).map(|k| self.edge_term(corners[k], corners[(k + 1) % n])).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// Over the domain, the sum is twice the light's irradiance factor (computed by the
+    /// renderer's own clipping in 3D), at points whose horizon cuts the light and not.
+    #[test]
+    fn the_domain_sum_is_the_unshadowed_irradiance() {
+        let light = RectLight::new(
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.6),
+            Vec3::ONE,
+        );
+        let cases = [
+            (Vec3::new(0.0, 0.0, 0.0), Vec3::Y),
+            (Vec3::new(0.3, 1.0, -0.2), Vec3::new(0.8, 0.6, 0.0)),
+            (Vec3::new(-1.5, 1.9, 0.1), Vec3::new(0.99, 0.1, 0.1).normalize()),
+            (Vec3::new(0.2, 1.99, 0.0), Vec3::new(0.0, 0.7, 0.7).normalize()),
+        ];
+        for (p, n) in cases {
+            let plane = LightPlane::new(&light, p.as_dvec3(), n.as_dvec3());
+            let mut corners = [DVec2::ZERO; MAX_DOMAIN];
+            let m = plane.domain(&mut corners);
+            let sum = plane.polygon_sum(&corners[..m]);
+            let expected = light.irradiance_factor_f64(p, n);
+            assert!(
+                (0.5 * sum.abs() - expected).abs() <= 1e-12 * expected.max(1e-300),
+                "{p} {n}: {sum} {expected}"
+            );
+        }
+    }
+
+    /// A sub-rectangle's sum equals the irradiance factor of a light that is that
+    /// sub-rectangle, from 1e-3 to 1e5 m.
+    #[test]
+    fn a_part_of_the_light_is_the_light_it_would_be() {
+        for scale in [1e-3f32, 1.0, 1e5] {
+            let light =
+                RectLight::new(Vec3::new(0.0, 2.0, 0.0) * scale, Vec3::X * scale, Vec3::Z * scale, Vec3::ONE);
+            let (p, n) = (Vec3::new(0.1, 0.0, 0.2) * scale, Vec3::Y);
+            let plane = LightPlane::new(&light, p.as_dvec3(), n.as_dvec3());
+            // The part [0.25, 0.75] x [0, 0.5]: centre (0, 2, -0.25), half the sides.
+            let part =
+                [DVec2::new(0.25, 0.0), DVec2::new(0.75, 0.0), DVec2::new(0.75, 0.5), DVec2::new(0.25, 0.5)];
+            let sub = RectLight::new(
+                Vec3::new(0.0, 2.0, -0.25) * scale,
+                0.5 * Vec3::X * scale,
+                0.5 * Vec3::Z * scale,
+                Vec3::ONE,
+            );
+            let expected = sub.irradiance_factor_f64(p, n);
+            let got = 0.5 * plane.polygon_sum(&part).abs();
+            assert!((got - expected).abs() <= 1e-6 * expected, "scale {scale}: {got} {expected}");
+        }
+    }
+}
