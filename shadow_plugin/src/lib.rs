@@ -10,6 +10,7 @@ pub mod depth_march;
 pub mod edge_table;
 pub mod pcss;
 pub mod silhouette;
+mod silhouette_edges;
 
 pub use depth_map::heightfield::Heightfield;
 pub use depth_map::{DepthMap, DepthMapParams, LightFrame, MapSwitches};

@@ -31,32 +31,17 @@
 //! Scene file: `method = "silhouette"`; `[shadows.silhouette]` takes no keys (the sample
 //! count is `[shadows].samples`, as for `traced`).
 
-mod alpha;
-mod blocks;
-mod candidate;
-
-/// A uniform [0, 1) stream (xorshift64, 53 bits) for the folder's randomised unit tests.
 #[cfg(test)]
-fn uniform(mut state: u64) -> impl FnMut() -> f64 {
-    move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+mod band_tests;
 mod counting;
-mod edge_tree;
-mod edges;
 mod entry;
-mod kept;
-mod projection;
 mod query;
 mod scratch;
-mod welding;
 
-use edge_tree::EdgeTree;
-use edges::EdgeSet;
+use crate::silhouette_edges::candidate::GatherRefusal;
+use crate::silhouette_edges::edge_tree::EdgeTree;
+use crate::silhouette_edges::edges::EdgeSet;
+use crate::silhouette_edges::kept::KeptEdges;
 use renderer::interface::method::NoKeys;
 use renderer::methods::sample_stream::{Culling, LightSample, SampleStream};
 use renderer::{
@@ -119,6 +104,16 @@ enum Fallback {
     KeptInstance,
 }
 
+impl From<GatherRefusal> for Fallback {
+    fn from(why: GatherRefusal) -> Fallback {
+        match why {
+            GatherRefusal::TooManyCandidates => Fallback::Costly,
+            GatherRefusal::NoShaft => Fallback::NoShaft,
+            GatherRefusal::KeptInstance => Fallback::KeptInstance,
+        }
+    }
+}
+
 /// The plugin: the light's edge set and `traced`'s samples (the renderer's [`SampleStream`],
 /// which also traces what the counting leaves).
 #[derive(Debug)]
@@ -128,7 +123,7 @@ pub struct Silhouette {
     id: u64,
     edges: EdgeSet,
     tree: EdgeTree,
-    kept: kept::KeptEdges,
+    kept: KeptEdges,
     counters: Counters,
 }
 
@@ -161,7 +156,7 @@ impl Silhouette {
             id: 0,
             edges: EdgeSet::default(),
             tree: EdgeTree::default(),
-            kept: kept::KeptEdges::default(),
+            kept: KeptEdges::default(),
             counters: Counters::default(),
         }
     }
@@ -230,7 +225,7 @@ impl LightShadowing for Silhouette {
             .map_err(|message| ShadowError { method: SilhouetteParams::NAME, message })?;
         self.edges = EdgeSet::build(ctx.scene, ctx.light);
         self.tree = EdgeTree::build(&self.edges);
-        self.kept = kept::KeptEdges::build(ctx.scene, ctx.light);
+        self.kept = KeptEdges::build(ctx.scene, ctx.light);
         // Never 0 (an unprepared plugin's), never reused in this process.
         static NEXT_ID: AtomicU64 = AtomicU64::new(1);
         self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);

@@ -1,10 +1,10 @@
 //! One point's visibility from its silhouette edges (see the module doc of `silhouette`):
 //! the shaft's candidates, their weights and projections, the counts, one ray.
 
-use super::counting::{ActiveEdge, Binned, EdgeRows, count_edges, is_reference};
-use super::projection::Frame;
+use super::counting::{Binned, EdgeRows, count_edges, is_reference};
 use super::scratch::{MIXED, MIXED_BLOCKED, MIXED_LIT, SCRATCH, Scratch};
 use super::{Fallback, Silhouette};
+use crate::silhouette_edges::projection::{ActiveEdge, Frame};
 use glam::{DVec2, Vec3};
 use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;

@@ -2,12 +2,12 @@
 //! shaft's candidates, the active edges and flagged triangles' regions, the samples with
 //! their counts and marks, and the strata grid's bins; with the passes that fill them.
 
-use super::blocks::{Blocks, vertex_a};
-use super::candidate::{Candidate, VARIES};
-use super::counting::{ActiveEdge, EdgeRows};
-use super::edges::ALPHA;
-use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
+use super::counting::EdgeRows;
 use super::{Fallback, Silhouette};
+use crate::silhouette_edges::blocks::{Blocks, vertex_a};
+use crate::silhouette_edges::candidate::{Candidate, VARIES};
+use crate::silhouette_edges::edges::ALPHA;
+use crate::silhouette_edges::projection::{ActiveEdge, Frame, Region, exact_orient_sign, orient_sign, push};
 use glam::{DVec2, DVec3};
 use renderer::Scene;
 use renderer::geometry::shaft::Shaft;
@@ -100,7 +100,7 @@ impl Scratch {
                 Ok(())
             }
             // Too many candidates, or a tree too deep for the traversal's stack.
-            Some(Err(why)) => Err(why),
+            Some(Err(why)) => Err(why.into()),
             None => {
                 self.walked.clear();
                 let (walked, excluded) = (&mut self.walked, &mut self.excluded);

@@ -18,8 +18,7 @@
 //! The cache is per thread and direct-mapped; which points walk depends on the order
 //! queries arrive in, the answers do not.
 
-use super::Fallback;
-use super::candidate::{Candidate, block_weight};
+use super::candidate::{Candidate, GatherRefusal, block_weight};
 use super::edge_tree::EdgeTree;
 use super::edges::EdgeSet;
 use super::kept::KeptEdges;
@@ -62,7 +61,7 @@ struct Entry {
     key: Option<Key>,
     /// Why no point reads this block's list: a tree deeper than the traversal's stack, or
     /// more candidates than the counting pays for (the walk stops there).
-    refused: Option<Fallback>,
+    refused: Option<GatherRefusal>,
     edges: Vec<u32>,
     candidates: Vec<Candidate>,
     triangles: Vec<u32>,
@@ -70,15 +69,15 @@ struct Entry {
 
 /// One thread's blocks.
 #[derive(Debug, Default)]
-pub(super) struct Blocks {
+pub(crate) struct Blocks {
     entries: Vec<Entry>,
 }
 
 /// What one block gives a point: its candidate edges with their weights over the block, and
 /// its flagged triangles.
-pub(super) struct BlockList<'a> {
-    pub(super) candidates: &'a [Candidate],
-    pub(super) triangles: &'a [u32],
+pub(crate) struct BlockList<'a> {
+    pub(crate) candidates: &'a [Candidate],
+    pub(crate) triangles: &'a [u32],
 }
 
 impl Blocks {
@@ -87,7 +86,7 @@ impl Blocks {
     /// for its block's ball, or coordinates off any grid), `Some(Err)` where the walk could
     /// not finish or its list holds more than `max_candidates` (the same for every point of
     /// a preparation: the sample count's).
-    pub(super) fn list(
+    pub(crate) fn list(
         &mut self,
         plugin: u64,
         light: &RectLight,
@@ -95,7 +94,7 @@ impl Blocks {
         scene: &Scene,
         origin: Vec3,
         max_candidates: usize,
-    ) -> Option<Result<BlockList<'_>, Fallback>> {
+    ) -> Option<Result<BlockList<'_>, GatherRefusal>> {
         let (key, centre, radius) = block_of(plugin, light, origin)?;
         if self.entries.is_empty() {
             self.entries.resize_with(ENTRIES, Entry::default);
@@ -115,9 +114,9 @@ impl Blocks {
             let (edges, triangles) = (&mut entry.edges, &mut entry.triangles);
             let complete = tree.gather(set, &shaft, (centre, radius), edges, triangles, max_walked);
             entry.refused = if edges.len() > max_walked {
-                Some(Fallback::Costly)
+                Some(GatherRefusal::TooManyCandidates)
             } else if !complete {
-                Some(Fallback::NoShaft)
+                Some(GatherRefusal::NoShaft)
             } else {
                 None
             };
@@ -142,13 +141,13 @@ impl Blocks {
                     (&mut walked, max_walked),
                 ) {
                     Err(why) => Some(why),
-                    Ok(_) if walked > max_walked => Some(Fallback::Costly),
-                    Ok(false) => Some(Fallback::NoShaft),
+                    Ok(_) if walked > max_walked => Some(GatherRefusal::TooManyCandidates),
+                    Ok(false) => Some(GatherRefusal::NoShaft),
                     Ok(true) => None,
                 };
             }
             if entry.refused.is_none() && entry.candidates.len() > max_candidates {
-                entry.refused = Some(Fallback::Costly);
+                entry.refused = Some(GatherRefusal::TooManyCandidates);
             }
             entry.key = Some(key);
         }
@@ -191,6 +190,6 @@ fn block_of(plugin: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVec3,
 
 /// Vertex `i` of `set` as the shaft tests read it.
 #[inline(always)]
-pub(super) fn vertex_a(set: &EdgeSet, i: u32) -> Vec3A {
+pub(crate) fn vertex_a(set: &EdgeSet, i: u32) -> Vec3A {
     Vec3A::from(set.vertices[i as usize])
 }

@@ -6,49 +6,76 @@
 //! `MARGIN`) before any division; each vertex projects by a function of itself and `o` alone,
 //! so edges sharing a vertex share its projection bit for bit.
 
-use super::counting::ActiveEdge;
 use glam::{DVec2, DVec3, Vec3};
 
 /// Light-space margin (in units of the light's sides) an edge is kept to: samples lie in
 /// [0, 1]^2 up to a rounding, and the reference point inside.
-pub(super) const MARGIN: f64 = 0.02;
+pub(crate) const MARGIN: f64 = 0.02;
 
 /// The band's ulps (of the light's coordinates for the ray's aim, taken 4 times over; of the
 /// edge's in f64 for the watertight test's frame) within which a sample's shadow ray may pass
 /// an edge and `traced`'s test may go either way: such samples are traced. Measured
-/// (`band_tests.rs`: samples placed across random edges' lines, near the point and seen
+/// (`silhouette/band_tests.rs`: samples placed across random edges' lines, near the point and seen
 /// end-on too, traced with the renderer's ray and watertight test): every disagreement lies
 /// within 0.1 of the band. (64 before that test: on metal-rough-spheres, 4x more samples
 /// traced, and points with no reference point clear of every band.)
-pub(super) const BAND_ULPS: f64 = 16.0;
+pub(crate) const BAND_ULPS: f64 = 16.0;
+
+/// An edge active for this point, as affine functions of a sample's light coordinates.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct ActiveEdge {
+    /// `side(a, b) = s0 + sa a + sb b`: orient3d(o, e0, e1, s) scaled to O(1), the sign of the
+    /// sample's side. In f32, like the samples: the band covers its rounding.
+    pub(crate) side: [f32; 3],
+    /// |side| under this at a sample: it is traced (`traced`'s own f32 ray test may go
+    /// either way there, and this side's evaluation).
+    pub(crate) band: f32,
+    /// |side| under this at a point of a path (the reference, C_j, M): its sign is not
+    /// sure. Only this side's own evaluation (f64 coefficients rounded to f32, an f32
+    /// evaluation) matters there: no ray is aimed at a path's points, the count changes
+    /// where the path crosses the exact projection.
+    pub(crate) path_band: f32,
+    /// The clipped projection's ends.
+    pub(crate) p0: DVec2,
+    pub(crate) p1: DVec2,
+    /// The sum of the incident faces' orientations.
+    pub(crate) weight: i32,
+}
+
+impl ActiveEdge {
+    #[inline(always)]
+    pub(crate) fn side_at(&self, a: f32, b: f32) -> f32 {
+        self.side[0] + self.side[1] * a + self.side[2] * b
+    }
+}
 
 /// A flagged triangle's projection over the light: a convex polygon in light coordinates
 /// (the triangle clipped to the slab between o's plane and the light's, and to the grown
 /// light), as edge lines `l0 + la a + lb b >= -margin` inside, normalised to distance.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Region {
-    pub(super) lines: [[f64; 3]; MAX_POLYGON],
-    pub(super) count: usize,
-    pub(super) margin: f64,
+pub(crate) struct Region {
+    pub(crate) lines: [[f64; 3]; MAX_POLYGON],
+    pub(crate) count: usize,
+    pub(crate) margin: f64,
     /// A box holding the grown polygon (infinite where a corner is too sharp to bound): most
     /// samples are rejected by it alone (glass-vase-flowers: the per-sample region tests
     /// were ~45% of the method's time).
-    pub(super) lo: DVec2,
-    pub(super) hi: DVec2,
+    pub(crate) lo: DVec2,
+    pub(crate) hi: DVec2,
     /// The triangle, and whether alpha (holes) is its only flag: then a sample the opaque
     /// count leaves lit is tested against it alone, not traced.
-    pub(super) slot: u32,
-    pub(super) alpha_only: bool,
+    pub(crate) slot: u32,
+    pub(crate) alpha_only: bool,
 }
 
 /// A triangle clipped by six planes has at most nine sides.
-pub(super) const MAX_POLYGON: usize = 9;
+pub(crate) const MAX_POLYGON: usize = 9;
 
 /// A clipping constraint on a homogeneous point (o's height, a tiny height): inside >= 0.
 type Constraint = fn(&[f64; 3], f64, f64) -> f64;
 
 impl Region {
-    pub(super) fn new(frame: &Frame, v: [DVec3; 3]) -> Option<Region> {
+    pub(crate) fn new(frame: &Frame, v: [DVec3; 3]) -> Option<Region> {
         // Homogeneous clipping (Sutherland-Hodgman) against w > 0, w <= height (the light's
         // plane) and the grown rectangle; all affine in the 3D point.
         let mut poly = [[0.0f64; 3]; MAX_POLYGON];
@@ -162,7 +189,7 @@ impl Region {
 
     /// Whether the sample at `p` may see its ray meet the triangle.
     #[inline]
-    pub(super) fn holds(&self, p: DVec2) -> bool {
+    pub(crate) fn holds(&self, p: DVec2) -> bool {
         p.cmpge(self.lo).all()
             && p.cmple(self.hi).all()
             && self.lines[..self.count].iter().all(|l| l[0] + l[1] * p.x + l[2] * p.y >= -self.margin)
@@ -170,25 +197,25 @@ impl Region {
 }
 
 /// The light's frame in f64, seen from the origin `o`.
-pub(super) struct Frame {
-    pub(super) o: DVec3,
-    pub(super) centre: DVec3,
-    pub(super) u: DVec3,
-    pub(super) v: DVec3,
+pub(crate) struct Frame {
+    pub(crate) o: DVec3,
+    pub(crate) centre: DVec3,
+    pub(crate) u: DVec3,
+    pub(crate) v: DVec3,
     /// u / |u|^2, v / |v|^2: light coordinates of a point in the plane.
-    pub(super) u_dual: DVec3,
-    pub(super) v_dual: DVec3,
-    pub(super) normal: DVec3,
+    pub(crate) u_dual: DVec3,
+    pub(crate) v_dual: DVec3,
+    pub(crate) normal: DVec3,
     /// o's height over the light's plane (> 0).
-    pub(super) height: f64,
+    pub(crate) height: f64,
     /// The largest distance from o to a (grown) light corner.
-    pub(super) reach: f64,
+    pub(crate) reach: f64,
     /// The largest coordinate magnitude of o and the light's corners.
-    pub(super) magnitude: f64,
+    pub(crate) magnitude: f64,
 }
 
 impl Frame {
-    pub(super) fn new(light: &renderer::RectLight, origin: Vec3) -> Option<Frame> {
+    pub(crate) fn new(light: &renderer::RectLight, origin: Vec3) -> Option<Frame> {
         let (centre, u, v) = (light.center.as_dvec3(), light.u.as_dvec3(), light.v.as_dvec3());
         let normal = u.cross(v).normalize();
         let o = origin.as_dvec3();
@@ -217,7 +244,7 @@ impl Frame {
 
     /// `x`'s projection from o in homogeneous light coordinates (a w, b w, w), w = o's
     /// height over the light less x's: affine in x.
-    pub(super) fn project(&self, x: DVec3) -> [f64; 3] {
+    pub(crate) fn project(&self, x: DVec3) -> [f64; 3] {
         let w = self.height - self.normal.dot(x - self.centre);
         let h = (self.o - self.centre) * w + (x - self.o) * self.height;
         [h.dot(self.u_dual) + 0.5 * w, h.dot(self.v_dual) + 0.5 * w, w]
@@ -227,7 +254,7 @@ impl Frame {
 /// Sign of orient3d(o, e0, e1, c) = ((e0 - o) x (e1 - o)) . (c - o), or `None` where the f64
 /// rounding could flip it (Shewchuk's static bound on the permanent, doubled): then
 /// [`exact_orient_sign`] decides.
-pub(super) fn orient_sign(n: DVec3, n_abs: DVec3, c: DVec3, o: DVec3) -> Option<i32> {
+pub(crate) fn orient_sign(n: DVec3, n_abs: DVec3, c: DVec3, o: DVec3) -> Option<i32> {
     let d = c - o;
     let det = n.dot(d);
     let bound = 2e-15 * n_abs.dot(d.abs());
@@ -243,7 +270,7 @@ pub(super) fn orient_sign(n: DVec3, n_abs: DVec3, c: DVec3, o: DVec3) -> Option<
 /// The exact sign of orient3d(o, e0, e1, c) (Shewchuk's adaptive predicate, exact for the f64
 /// values of f32 coordinates): 0 where o lies in the face's plane, which no segment from o
 /// then crosses. Rare (a filter miss), so its cost does not matter.
-pub(super) fn exact_orient_sign(o: DVec3, e0: DVec3, e1: DVec3, c: DVec3) -> i32 {
+pub(crate) fn exact_orient_sign(o: DVec3, e0: DVec3, e1: DVec3, c: DVec3) -> i32 {
     let p = |v: DVec3| robust::Coord3D { x: v.x, y: v.y, z: v.z };
     // robust's orient3d(a, b, c, d) = det[a - d, b - d, c - d] = (c - o) . ((e0 - o) x (e1 - o)).
     let det = robust::orient3d(p(c), p(e0), p(e1), p(o));
@@ -258,7 +285,7 @@ pub(super) fn exact_orient_sign(o: DVec3, e0: DVec3, e1: DVec3, c: DVec3) -> i32
 
 /// The clipped projection of edge (e0, e1), or `None` where nothing of it lies over the grown
 /// light between o's plane and the light's.
-pub(super) fn clip(frame: &Frame, e0: DVec3, e1: DVec3) -> Option<(DVec2, DVec2)> {
+pub(crate) fn clip(frame: &Frame, e0: DVec3, e1: DVec3) -> Option<(DVec2, DVec2)> {
     let (h0, h1) = (frame.project(e0), frame.project(e1));
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     // Each constraint g >= 0, g affine along the edge.
@@ -297,7 +324,7 @@ pub(super) fn clip(frame: &Frame, e0: DVec3, e1: DVec3) -> Option<(DVec2, DVec2)
 
 /// Adds edge (e0, e1) (`n` = (e0 - o) x (e1 - o)) to `active` if its projection meets the
 /// grown light.
-pub(super) fn push(active: &mut Vec<ActiveEdge>, frame: &Frame, e0: DVec3, e1: DVec3, n: DVec3, weight: i32) {
+pub(crate) fn push(active: &mut Vec<ActiveEdge>, frame: &Frame, e0: DVec3, e1: DVec3, n: DVec3, weight: i32) {
     {
         let Some((p0, p1)) = clip(frame, e0, e1) else { return };
         let sa = n.dot(frame.u);
@@ -355,7 +382,7 @@ mod tests {
     /// thin, with margins up to 0.05).
     #[test]
     fn a_region_box_holds_every_point_its_lines_accept() {
-        let mut next = crate::silhouette::uniform(0x0bad_5eed_dead_beef);
+        let mut next = crate::silhouette_edges::uniform(0x0bad_5eed_dead_beef);
         let mut bounded = 0;
         for _ in 0..2000 {
             let pts = [0, 1, 2].map(|_| DVec2::new(next(), next()));
@@ -387,7 +414,7 @@ mod tests {
     /// where it does not: a point exactly in the plane (0), and one 2^-45 off it.
     #[test]
     fn exact_orientation_decides_what_the_filter_cannot() {
-        let mut uniform = crate::silhouette::uniform(0x9e37_79b9_7f4a_7c15);
+        let mut uniform = crate::silhouette_edges::uniform(0x9e37_79b9_7f4a_7c15);
         let mut next = || uniform() * 20.0 - 10.0;
         let mut point = || DVec3::new(next(), next(), next());
         for _ in 0..10_000 {
@@ -406,7 +433,3 @@ mod tests {
         assert_eq!(exact_orient_sign(o, e0, e1, on_plane - DVec3::new(0.0, 0.0, 2f64.powi(-45))), -1);
     }
 }
-
-#[cfg(test)]
-#[path = "band_tests.rs"]
-mod band_tests;
