@@ -38,10 +38,7 @@ mod entry;
 mod query;
 mod scratch;
 
-use crate::silhouette_edges::candidate::GatherRefusal;
-use crate::silhouette_edges::edge_tree::EdgeTree;
-use crate::silhouette_edges::edges::EdgeSet;
-use crate::silhouette_edges::kept::KeptEdges;
+use crate::silhouette_edges::{GatherRefusal, OccluderEdges};
 use renderer::interface::method::NoKeys;
 use renderer::methods::sample_stream::{Culling, LightSample, SampleStream};
 use renderer::{
@@ -114,16 +111,12 @@ impl From<GatherRefusal> for Fallback {
     }
 }
 
-/// The plugin: the light's edge set and `traced`'s samples (the renderer's [`SampleStream`],
+/// The plugin: the light's occluder edges (`OccluderEdges`) and `traced`'s samples (the renderer's [`SampleStream`],
 /// which also traces what the counting leaves).
 #[derive(Debug)]
 pub struct Silhouette {
     stream: SampleStream,
-    /// This preparation's identity: the per-thread block caches' entries carry it.
-    id: u64,
-    edges: EdgeSet,
-    tree: EdgeTree,
-    kept: KeptEdges,
+    occluders: OccluderEdges,
     counters: Counters,
 }
 
@@ -153,10 +146,7 @@ impl Silhouette {
     pub fn new(samples: u32) -> Self {
         Self {
             stream: SampleStream::new(samples),
-            id: 0,
-            edges: EdgeSet::default(),
-            tree: EdgeTree::default(),
-            kept: KeptEdges::default(),
+            occluders: OccluderEdges::default(),
             counters: Counters::default(),
         }
     }
@@ -223,12 +213,7 @@ impl LightShadowing for Silhouette {
         self.stream
             .prepare(*ctx.light)
             .map_err(|message| ShadowError { method: SilhouetteParams::NAME, message })?;
-        self.edges = EdgeSet::build(ctx.scene, ctx.light);
-        self.tree = EdgeTree::build(&self.edges);
-        self.kept = KeptEdges::build(ctx.scene, ctx.light);
-        // Never 0 (an unprepared plugin's), never reused in this process.
-        static NEXT_ID: AtomicU64 = AtomicU64::new(1);
-        self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        self.occluders = OccluderEdges::build(ctx.scene, ctx.light);
         Ok(())
     }
 
@@ -252,7 +237,7 @@ impl LightShadowing for Silhouette {
     fn counters(&self) -> Vec<(&'static str, u64)> {
         let c = &self.counters;
         let load = |a: &AtomicU64| a.load(Ordering::Relaxed);
-        let s = &self.edges.stats;
+        let s = &self.occluders.edges.stats;
         let mut out = vec![
             ("silhouette_points", load(&c.points)),
             ("shadow_rays", load(&c.rays)),
@@ -278,8 +263,8 @@ impl LightShadowing for Silhouette {
             ("triangles_alpha_clear", s.alpha_clear_triangles),
             ("triangles_near_light", s.near_light_triangles),
             ("triangles_zero_area", s.zero_area_triangles),
-            ("instances_counted", self.kept.counted),
-            ("instance_mesh_edges", self.kept.mesh_edges),
+            ("instances_counted", self.occluders.kept.counted),
+            ("instance_mesh_edges", self.occluders.kept.mesh_edges),
         ];
         // `traced`'s shaft counters (its rays are never traced through it).
         out.extend(self.stream.shaft_counters());
@@ -287,6 +272,6 @@ impl LightShadowing for Silhouette {
     }
 
     fn memory_bytes(&self) -> u64 {
-        self.edges.bytes() + self.tree.bytes() + self.kept.bytes()
+        self.occluders.bytes()
     }
 }

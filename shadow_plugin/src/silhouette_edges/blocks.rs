@@ -19,9 +19,8 @@
 //! queries arrive in, the answers do not.
 
 use super::candidate::{Candidate, GatherRefusal, block_weight};
-use super::edge_tree::EdgeTree;
 use super::edges::EdgeSet;
-use super::kept::KeptEdges;
+use super::occluders::OccluderEdges;
 use glam::{DVec3, Vec3, Vec3A};
 use renderer::geometry::shaft::Shaft;
 use renderer::util::random::mix64;
@@ -38,11 +37,11 @@ const BLOCK_DIVISOR: f64 = 32.0;
 /// a few rows per cube, a band's cubes fit.
 const ENTRIES: usize = 256;
 
-/// A block of space: the plugin's preparation it belongs to, its level (cube side 2^level)
+/// A block of space: the occluders' build it belongs to ([`OccluderEdges::id`]), its level (cube side 2^level)
 /// and its cube.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Key {
-    plugin: u64,
+    occluders: u64,
     level: i32,
     cube: [i64; 3],
 }
@@ -51,7 +50,7 @@ impl Key {
     fn slot(&self) -> usize {
         let h = [self.level as u64, self.cube[0] as u64, self.cube[1] as u64, self.cube[2] as u64]
             .iter()
-            .fold(mix64(self.plugin), |h, &k| mix64(h ^ k));
+            .fold(mix64(self.occluders), |h, &k| mix64(h ^ k));
         (h % ENTRIES as u64) as usize
     }
 }
@@ -69,33 +68,33 @@ struct Entry {
 
 /// One thread's blocks.
 #[derive(Debug, Default)]
-pub(crate) struct Blocks {
+pub(super) struct Blocks {
     entries: Vec<Entry>,
 }
 
 /// What one block gives a point: its candidate edges with their weights over the block, and
 /// its flagged triangles.
-pub(crate) struct BlockList<'a> {
-    pub(crate) candidates: &'a [Candidate],
-    pub(crate) triangles: &'a [u32],
+pub(super) struct BlockList<'a> {
+    pub(super) candidates: &'a [Candidate],
+    pub(super) triangles: &'a [u32],
 }
 
 impl Blocks {
-    /// The block holding `origin` for the plugin's preparation `plugin`, walked if the
-    /// cache does not hold it; `None` where no block applies (an origin too near the light
-    /// for its block's ball, or coordinates off any grid), `Some(Err)` where the walk could
-    /// not finish or its list holds more than `max_candidates` (the same for every point of
-    /// a preparation: the sample count's).
-    pub(crate) fn list(
+    /// The block holding `origin` for `occluders`, walked if the cache does not hold it;
+    /// `None` where no block applies (an origin too near the light for its block's ball, or
+    /// coordinates off any grid), `Some(Err)` where the walk could not finish or its list
+    /// holds more than `max_candidates` (the same for every point of a preparation: the
+    /// sample count's).
+    pub(super) fn list(
         &mut self,
-        plugin: u64,
+        occluders: &OccluderEdges,
         light: &RectLight,
-        (set, tree, kept): (&EdgeSet, &EdgeTree, &KeptEdges),
         scene: &Scene,
         origin: Vec3,
         max_candidates: usize,
     ) -> Option<Result<BlockList<'_>, GatherRefusal>> {
-        let (key, centre, radius) = block_of(plugin, light, origin)?;
+        let (key, centre, radius) = block_of(occluders.id, light, origin)?;
+        let (set, tree, kept) = (&occluders.edges, &occluders.tree, &occluders.kept);
         if self.entries.is_empty() {
             self.entries.resize_with(ENTRIES, Entry::default);
         }
@@ -161,7 +160,7 @@ impl Blocks {
 
 /// The block of `origin`: its key, its ball's centre and radius (f64). The cube's side is
 /// the power of two at or under the distance to the light's centre over [`BLOCK_DIVISOR`].
-fn block_of(plugin: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVec3, f64)> {
+fn block_of(occluders: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVec3, f64)> {
     let o = origin.as_dvec3();
     let dist = (o - light.center.as_dvec3()).length();
     // floor(log2(x)) from the exponent's bits (normal numbers only; no libm call).
@@ -185,11 +184,11 @@ fn block_of(plugin: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVec3,
     // Half the cube's diagonal, a rounding over.
     let radius = 0.5 * side * 3f64.sqrt() * (1.0 + 1e-12);
     let cube = [cell.x as i64, cell.y as i64, cell.z as i64];
-    Some((Key { plugin, level, cube }, centre, radius))
+    Some((Key { occluders, level, cube }, centre, radius))
 }
 
 /// Vertex `i` of `set` as the shaft tests read it.
 #[inline(always)]
-pub(crate) fn vertex_a(set: &EdgeSet, i: u32) -> Vec3A {
+pub(super) fn vertex_a(set: &EdgeSet, i: u32) -> Vec3A {
     Vec3A::from(set.vertices[i as usize])
 }

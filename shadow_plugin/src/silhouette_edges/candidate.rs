@@ -36,7 +36,7 @@ pub(crate) struct Candidate {
 }
 
 impl Candidate {
-    pub(crate) fn new(r: &EdgeRecord, weight: i8) -> Candidate {
+    pub(super) fn new(r: &EdgeRecord, weight: i8) -> Candidate {
         Candidate { a: r.a, b: r.b, thirds: r.thirds, edge: r.edge, weight, faces: r.faces }
     }
 }
@@ -46,7 +46,7 @@ impl Candidate {
 /// |N| radius over the ball; a face is counted only where its sign holds over the whole ball
 /// by more than the f64 rounding (then each point's own exact predicate gives the same sign).
 /// N's components are rounded by under 2^-52 of `scale` each: 1e-12 of it is far over.
-pub(crate) fn block_weight(r: &EdgeRecord, centre: DVec3, radius: f64) -> i8 {
+pub(super) fn block_weight(r: &EdgeRecord, centre: DVec3, radius: f64) -> i8 {
     if r.faces == 0 {
         return VARIES;
     }

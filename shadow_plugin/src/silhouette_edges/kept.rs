@@ -1,4 +1,4 @@
-//! `silhouette` on kept instances ([`renderer::Scene::instanced`]): each stored mesh's edges
+//! Silhouette edges on kept instances ([`renderer::Scene::instanced`]): each stored mesh's edges
 //! are found once, in the mesh's own space, under a tree with normal cones; a point's walk
 //! enters the mesh's tree for every instance its shaft meets and places each edge it keeps
 //! in render space with the loader's arithmetic ([`InstancedScene::render_triangle`]'s:
@@ -12,8 +12,8 @@
 //! lies on), with the ball of origins carried there and grown by how far the f32 rounding
 //! of the placed corners can tilt a face's plane at that distance (`tilt_margin`).
 //!
-//! An instance the counting cannot answer for is not counted: any point whose shaft meets it
-//! is traced whole (`points_fallback_kept_instance`). These are the ones with an
+//! An instance the counting cannot answer for is not counted: a point whose shaft meets it is
+//! refused ([`GatherRefusal::KeptInstance`]; `silhouette` traces it whole). These are the ones with an
 //! alpha-tested material, a triangle near the light's plane (as [`super::edges`] flags
 //! them), or a nearly singular transform. An edge of more than two faces is split into
 //! edges of one face (the counts are sums over faces).

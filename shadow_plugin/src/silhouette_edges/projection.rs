@@ -10,7 +10,7 @@ use glam::{DVec2, DVec3, Vec3};
 
 /// Light-space margin (in units of the light's sides) an edge is kept to: samples lie in
 /// [0, 1]^2 up to a rounding, and the reference point inside.
-pub(crate) const MARGIN: f64 = 0.02;
+pub(super) const MARGIN: f64 = 0.02;
 
 /// The band's ulps (of the light's coordinates for the ray's aim, taken 4 times over; of the
 /// edge's in f64 for the watertight test's frame) within which a sample's shadow ray may pass
@@ -19,7 +19,7 @@ pub(crate) const MARGIN: f64 = 0.02;
 /// end-on too, traced with the renderer's ray and watertight test): every disagreement lies
 /// within 0.1 of the band. (64 before that test: on metal-rough-spheres, 4x more samples
 /// traced, and points with no reference point clear of every band.)
-pub(crate) const BAND_ULPS: f64 = 16.0;
+pub(super) const BAND_ULPS: f64 = 16.0;
 
 /// An edge active for this point, as affine functions of a sample's light coordinates.
 #[derive(Debug, Clone, Copy, Default)]
