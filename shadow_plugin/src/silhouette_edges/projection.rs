@@ -71,71 +71,24 @@ pub(crate) struct Region {
 /// A triangle clipped by six planes has at most nine sides.
 pub(crate) const MAX_POLYGON: usize = 9;
 
+/// A triangle's projection over the light ([`Frame::clip_triangle`]): a convex polygon in
+/// light coordinates.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Projected {
+    /// The corners in order (the first `count`).
+    pub(crate) corners: [DVec2; MAX_POLYGON],
+    pub(crate) count: usize,
+    /// The corners' smallest depth from o, as a fraction of o's height over the light (1 on
+    /// the light's plane).
+    pub(crate) lambda_min: f64,
+}
+
 /// A clipping constraint on a homogeneous point (o's height, a tiny height): inside >= 0.
 type Constraint = fn(&[f64; 3], f64, f64) -> f64;
 
 impl Region {
     pub(crate) fn new(frame: &Frame, v: [DVec3; 3]) -> Option<Region> {
-        // Homogeneous clipping (Sutherland-Hodgman) against w > 0, w <= height (the light's
-        // plane) and the grown rectangle; all affine in the 3D point.
-        let mut poly = [[0.0f64; 3]; MAX_POLYGON];
-        let mut n = 3;
-        for (k, x) in v.iter().enumerate() {
-            poly[k] = frame.project(*x);
-        }
-        let h = frame.height;
-        let tiny = 1e-9 * h;
-        // Wholly between o's plane and the light's, not near o's (leaves between a point and
-        // its light): the triangle itself, unclipped. The light's rectangle only trims what
-        // no sample reaches; `lambda_min` over the whole triangle is at most the trimmed
-        // one's; and the projection is magnified at most 100 times, so the lines' constants
-        // keep their precision far under the margin (which grows with the magnitudes).
-        let inside_slab = poly[..3].iter().all(|p| p[2] >= 1e-2 * h && h - p[2] >= 0.0);
-        let constraints: [Constraint; 6] = [
-            |p, _, tiny| p[2] - tiny,
-            |p, h, _| h - p[2],
-            |p, _, _| p[0] + MARGIN * p[2],
-            |p, _, _| (1.0 + MARGIN) * p[2] - p[0],
-            |p, _, _| p[1] + MARGIN * p[2],
-            |p, _, _| (1.0 + MARGIN) * p[2] - p[1],
-        ];
-        for g in constraints.into_iter().filter(|_| !inside_slab) {
-            let mut out = [[0.0f64; 3]; MAX_POLYGON];
-            let mut m = 0;
-            for k in 0..n {
-                let (a, b) = (poly[k], poly[(k + 1) % n]);
-                let (ga, gb) = (g(&a, h, tiny), g(&b, h, tiny));
-                if ga >= 0.0 {
-                    out[m] = a;
-                    m += 1;
-                }
-                if (ga >= 0.0) != (gb >= 0.0) && m < out.len() {
-                    let t = ga / (ga - gb);
-                    out[m] = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])];
-                    m += 1;
-                }
-            }
-            if m == 0 {
-                return None;
-            }
-            (poly, n) = (out, m);
-        }
-        let mut pts = [DVec2::ZERO; MAX_POLYGON];
-        for (pt, p) in pts.iter_mut().zip(&poly[..n]) {
-            *pt = DVec2::new(p[0] / p[2], p[1] / p[2]);
-        }
-        // Unclipped: wholly beyond one side of the grown light, as the clipping would have
-        // found (a region there held no sample, but cost the point its cheaper paths).
-        if inside_slab {
-            let (lo, hi) = (
-                pts[..3].iter().fold(DVec2::INFINITY, |m, p| m.min(*p)),
-                pts[..3].iter().fold(DVec2::NEG_INFINITY, |m, p| m.max(*p)),
-            );
-            if hi.x < -MARGIN || hi.y < -MARGIN || lo.x > 1.0 + MARGIN || lo.y > 1.0 + MARGIN {
-                return None;
-            }
-        }
-        let lambda_min = poly[..n].iter().map(|p| p[2] / h).fold(f64::INFINITY, f64::min);
+        let Projected { corners: pts, count: n, lambda_min } = frame.clip_triangle(v)?;
         // A 3D displacement d at depth lambda moves the projection by d / lambda: the band of
         // the triangle's coordinates, in light units.
         let magnitude = v.iter().fold(frame.magnitude, |m, x| m.max(x.abs().max_element()));
@@ -248,6 +201,76 @@ impl Frame {
         let w = self.height - self.normal.dot(x - self.centre);
         let h = (self.o - self.centre) * w + (x - self.o) * self.height;
         [h.dot(self.u_dual) + 0.5 * w, h.dot(self.v_dual) + 0.5 * w, w]
+    }
+
+    /// A triangle's projection from o over the light: the triangle clipped (homogeneous
+    /// Sutherland-Hodgman) to the slab between o's plane and the light's and to the grown
+    /// light, or `None` where nothing of it is left. A triangle wholly in the slab and away
+    /// from o's plane is not clipped (the light's rectangle only trims what no sample
+    /// reaches): its corners may lie beyond the grown light, and it is `None` only where it
+    /// lies wholly beyond one side of it.
+    pub(crate) fn clip_triangle(&self, v: [DVec3; 3]) -> Option<Projected> {
+        // Against w > 0, w <= height (the light's plane) and the grown rectangle; all affine
+        // in the 3D point.
+        let mut poly = [[0.0f64; 3]; MAX_POLYGON];
+        let mut n = 3;
+        for (k, x) in v.iter().enumerate() {
+            poly[k] = self.project(*x);
+        }
+        let h = self.height;
+        let tiny = 1e-9 * h;
+        // Wholly between o's plane and the light's, not near o's (leaves between a point and
+        // its light): the triangle itself, unclipped. The light's rectangle only trims what
+        // no sample reaches; `lambda_min` over the whole triangle is at most the trimmed
+        // one's; and the projection is magnified at most 100 times, so the lines' constants
+        // keep their precision far under the margin (which grows with the magnitudes).
+        let inside_slab = poly[..3].iter().all(|p| p[2] >= 1e-2 * h && h - p[2] >= 0.0);
+        let constraints: [Constraint; 6] = [
+            |p, _, tiny| p[2] - tiny,
+            |p, h, _| h - p[2],
+            |p, _, _| p[0] + MARGIN * p[2],
+            |p, _, _| (1.0 + MARGIN) * p[2] - p[0],
+            |p, _, _| p[1] + MARGIN * p[2],
+            |p, _, _| (1.0 + MARGIN) * p[2] - p[1],
+        ];
+        for g in constraints.into_iter().filter(|_| !inside_slab) {
+            let mut out = [[0.0f64; 3]; MAX_POLYGON];
+            let mut m = 0;
+            for k in 0..n {
+                let (a, b) = (poly[k], poly[(k + 1) % n]);
+                let (ga, gb) = (g(&a, h, tiny), g(&b, h, tiny));
+                if ga >= 0.0 {
+                    out[m] = a;
+                    m += 1;
+                }
+                if (ga >= 0.0) != (gb >= 0.0) && m < out.len() {
+                    let t = ga / (ga - gb);
+                    out[m] = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])];
+                    m += 1;
+                }
+            }
+            if m == 0 {
+                return None;
+            }
+            (poly, n) = (out, m);
+        }
+        let mut pts = [DVec2::ZERO; MAX_POLYGON];
+        for (pt, p) in pts.iter_mut().zip(&poly[..n]) {
+            *pt = DVec2::new(p[0] / p[2], p[1] / p[2]);
+        }
+        // Unclipped: wholly beyond one side of the grown light, as the clipping would have
+        // found (a region there held no sample, but cost the point its cheaper paths).
+        if inside_slab {
+            let (lo, hi) = (
+                pts[..3].iter().fold(DVec2::INFINITY, |m, p| m.min(*p)),
+                pts[..3].iter().fold(DVec2::NEG_INFINITY, |m, p| m.max(*p)),
+            );
+            if hi.x < -MARGIN || hi.y < -MARGIN || lo.x > 1.0 + MARGIN || lo.y > 1.0 + MARGIN {
+                return None;
+            }
+        }
+        let lambda_min = poly[..n].iter().map(|p| p[2] / h).fold(f64::INFINITY, f64::min);
+        Some(Projected { corners: pts, count: n, lambda_min })
     }
 }
 
@@ -408,6 +431,32 @@ mod tests {
             }
         }
         assert!(bounded > 1900, "only {bounded} boxes finite");
+    }
+
+    /// A triangle across o's plane and the light's is clipped to the slab and the grown
+    /// light; one wholly in the slab keeps its own corners, in order.
+    #[test]
+    fn a_clipped_triangle_lies_over_the_grown_light() {
+        let light = renderer::RectLight::new(Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE);
+        let frame = Frame::new(&light, Vec3::new(0.1, 0.2, 1.0)).expect("o above the light");
+        let across = [DVec3::new(-3.0, 0.0, 2.0), DVec3::new(3.0, 0.5, -1.0), DVec3::new(0.0, 3.0, 0.5)];
+        let p = frame.clip_triangle(across).expect("over the light");
+        assert!(p.count > 3 && p.lambda_min > 0.0);
+        for c in &p.corners[..p.count] {
+            assert!(
+                c.cmpge(DVec2::splat(-MARGIN - 1e-9)).all()
+                    && c.cmple(DVec2::splat(1.0 + MARGIN + 1e-9)).all()
+            );
+        }
+        let inside = [DVec3::new(0.0, 0.0, 0.5), DVec3::new(0.2, 0.0, 0.5), DVec3::new(0.0, 0.2, 0.5)];
+        let p = frame.clip_triangle(inside).expect("over the light");
+        assert_eq!(p.count, 3);
+        for (c, x) in p.corners.iter().zip(inside) {
+            let h = frame.project(x);
+            assert_eq!(*c, DVec2::new(h[0] / h[2], h[1] / h[2]));
+        }
+        let beyond = inside.map(|x| x + DVec3::new(5.0, 0.0, 0.0));
+        assert!(frame.clip_triangle(beyond).is_none());
     }
 
     /// The exact predicate agrees with the filter wherever the filter answers, and decides
