@@ -22,11 +22,12 @@
 //! sample).
 //!
 //! Cost: per light, the potential silhouette edges in a BVH with normal cones
-//! (`edge_tree.rs`), walked once per block of neighbouring points (`blocks.rs`); per point,
-//! one shaft query, exact weights for the edges over the light, the counting row by row of
-//! the strata grid along a path from r through each row's own height (`counting.rs`: runs
-//! of cells and whole rows move at once, samples are drawn only where a line passes), and
-//! one ray per side.
+//! (`silhouette_edges/`, shared with other edge methods: `edge_tree.rs`), walked once per
+//! block of neighbouring points (`blocks.rs`); per point, one shaft query, exact weights for
+//! the edges over the light (`gather.rs`, `projection.rs`), the counting row by row of the
+//! strata grid along a path from r through each row's own height (`counting.rs`: runs of
+//! cells and whole rows move at once, samples are drawn only where a line passes), and one
+//! ray per side.
 //!
 //! Scene file: `method = "silhouette"`; `[shadows.silhouette]` takes no keys (the sample
 //! count is `[shadows].samples`, as for `traced`).
@@ -97,7 +98,8 @@ enum Fallback {
     Costly,
     NoShaft,
     Inconsistent,
-    /// The shaft meets a kept instance the counting does not answer for (`kept.rs`).
+    /// The shaft meets a kept instance the counting does not answer for
+    /// (`silhouette_edges/kept.rs`).
     KeptInstance,
 }
 

@@ -1,6 +1,7 @@
 //! One point's working memory, per thread (allocated once, reused by every query): the
-//! shaft's candidates, the active edges and flagged triangles' regions, the samples with
-//! their counts and marks, and the strata grid's bins; with the passes that fill them.
+//! shaft's candidates, the active edges and flagged triangles' regions (an `EdgeScratch`,
+//! filled in `silhouette_edges`), the samples with their counts and marks, and the strata
+//! grid's bins; with the passes that fill these.
 
 use super::counting::EdgeRows;
 use crate::silhouette_edges::EdgeScratch;
