@@ -5,8 +5,8 @@
 //! must then be met exactly when the sample is on its third vertex's side. Random scenes
 //! from millimetres to kilometres across, far from the origin or near it.
 
-use super::*;
-use glam::Vec3;
+use crate::silhouette_edges::projection::{Frame, exact_orient_sign, push};
+use glam::{DVec2, DVec3, Vec3};
 use renderer::RectLight;
 use renderer::geometry::ray_origin::shadow_ray_from;
 use renderer::geometry::watertight::ShearedRay;
@@ -25,7 +25,7 @@ thread_local! {
 /// (samples checked outside the band, disagreements there, the largest |side| / band of a
 /// disagreement anywhere) over `trials` random edges.
 fn run(trials: usize, seed: u64) -> (u64, u64, f64) {
-    let mut next = crate::silhouette::uniform(seed);
+    let mut next = crate::silhouette_edges::uniform(seed);
     let (mut checked, mut wrong, mut worst) = (0u64, 0u64, 0.0f64);
     for trial in 0..trials {
         // A third of the edges near the origin, a third seen nearly end-on (their ends on

@@ -22,36 +22,9 @@
 //! is traced, and a row whose C_j or y_j is not (rare: a band's width in a strip's height)
 //! is traced whole.
 
+use crate::silhouette_edges::projection::ActiveEdge;
 use glam::DVec2;
 use std::ops::Range;
-
-/// An edge active for this point, as affine functions of a sample's light coordinates.
-#[derive(Debug, Clone, Copy, Default)]
-pub(super) struct ActiveEdge {
-    /// `side(a, b) = s0 + sa a + sb b`: orient3d(o, e0, e1, s) scaled to O(1), the sign of the
-    /// sample's side. In f32, like the samples: the band covers its rounding.
-    pub(super) side: [f32; 3],
-    /// |side| under this at a sample: it is traced (`traced`'s own f32 ray test may go
-    /// either way there, and this side's evaluation).
-    pub(super) band: f32,
-    /// |side| under this at a point of a path (the reference, C_j, M): its sign is not
-    /// sure. Only this side's own evaluation (f64 coefficients rounded to f32, an f32
-    /// evaluation) matters there: no ray is aimed at a path's points, the count changes
-    /// where the path crosses the exact projection.
-    pub(super) path_band: f32,
-    /// The clipped projection's ends.
-    pub(super) p0: DVec2,
-    pub(super) p1: DVec2,
-    /// The sum of the incident faces' orientations.
-    pub(super) weight: i32,
-}
-
-impl ActiveEdge {
-    #[inline(always)]
-    pub(super) fn side_at(&self, a: f32, b: f32) -> f32 {
-        self.side[0] + self.side[1] * a + self.side[2] * b
-    }
-}
 
 /// How far (in light coordinates) a tested coordinate must be from an end's to be on a
 /// definite side of it: the end's rounding to f32 (at most half an ulp of 1.02) and its
@@ -529,7 +502,7 @@ mod tests {
     /// only where asked.
     #[test]
     fn counts_equal_the_triangles_holding_each_sample() {
-        let mut next = crate::silhouette::uniform(0x0dd5_eed5_1234_abcd);
+        let mut next = crate::silhouette_edges::uniform(0x0dd5_eed5_1234_abcd);
         let (mut settled, mut near_total) = (0u64, 0u64);
         // N = 1024 and 4096 (a tiny edge then sits in a smaller part of its row).
         for trial in 0..300 {

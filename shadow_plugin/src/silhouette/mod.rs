@@ -22,41 +22,24 @@
 //! sample).
 //!
 //! Cost: per light, the potential silhouette edges in a BVH with normal cones
-//! (`edge_tree.rs`), walked once per block of neighbouring points (`blocks.rs`); per point,
-//! one shaft query, exact weights for the edges over the light, the counting row by row of
-//! the strata grid along a path from r through each row's own height (`counting.rs`: runs
-//! of cells and whole rows move at once, samples are drawn only where a line passes), and
-//! one ray per side.
+//! (`silhouette_edges/`, shared with other edge methods: `edge_tree.rs`), walked once per
+//! block of neighbouring points (`blocks.rs`); per point, one shaft query, exact weights for
+//! the edges over the light (`gather.rs`, `projection.rs`), the counting row by row of the
+//! strata grid along a path from r through each row's own height (`counting.rs`: runs of
+//! cells and whole rows move at once, samples are drawn only where a line passes), and one
+//! ray per side.
 //!
 //! Scene file: `method = "silhouette"`; `[shadows.silhouette]` takes no keys (the sample
 //! count is `[shadows].samples`, as for `traced`).
 
-mod alpha;
-mod blocks;
-mod candidate;
-
-/// A uniform [0, 1) stream (xorshift64, 53 bits) for the folder's randomised unit tests.
 #[cfg(test)]
-fn uniform(mut state: u64) -> impl FnMut() -> f64 {
-    move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+mod band_tests;
 mod counting;
-mod edge_tree;
-mod edges;
 mod entry;
-mod kept;
-mod projection;
 mod query;
 mod scratch;
-mod welding;
 
-use edge_tree::EdgeTree;
-use edges::EdgeSet;
+use crate::silhouette_edges::{GatherRefusal, OccluderEdges};
 use renderer::interface::method::NoKeys;
 use renderer::methods::sample_stream::{Culling, LightSample, SampleStream};
 use renderer::{
@@ -115,20 +98,27 @@ enum Fallback {
     Costly,
     NoShaft,
     Inconsistent,
-    /// The shaft meets a kept instance the counting does not answer for (`kept.rs`).
+    /// The shaft meets a kept instance the counting does not answer for
+    /// (`silhouette_edges/kept.rs`).
     KeptInstance,
 }
 
-/// The plugin: the light's edge set and `traced`'s samples (the renderer's [`SampleStream`],
+impl From<GatherRefusal> for Fallback {
+    fn from(why: GatherRefusal) -> Fallback {
+        match why {
+            GatherRefusal::TooManyCandidates => Fallback::Costly,
+            GatherRefusal::NoShaft => Fallback::NoShaft,
+            GatherRefusal::KeptInstance => Fallback::KeptInstance,
+        }
+    }
+}
+
+/// The plugin: the light's occluder edges (`OccluderEdges`) and `traced`'s samples (the renderer's [`SampleStream`],
 /// which also traces what the counting leaves).
 #[derive(Debug)]
 pub struct Silhouette {
     stream: SampleStream,
-    /// This preparation's identity: the per-thread block caches' entries carry it.
-    id: u64,
-    edges: EdgeSet,
-    tree: EdgeTree,
-    kept: kept::KeptEdges,
+    occluders: OccluderEdges,
     counters: Counters,
 }
 
@@ -158,10 +148,7 @@ impl Silhouette {
     pub fn new(samples: u32) -> Self {
         Self {
             stream: SampleStream::new(samples),
-            id: 0,
-            edges: EdgeSet::default(),
-            tree: EdgeTree::default(),
-            kept: kept::KeptEdges::default(),
+            occluders: OccluderEdges::default(),
             counters: Counters::default(),
         }
     }
@@ -228,12 +215,7 @@ impl LightShadowing for Silhouette {
         self.stream
             .prepare(*ctx.light)
             .map_err(|message| ShadowError { method: SilhouetteParams::NAME, message })?;
-        self.edges = EdgeSet::build(ctx.scene, ctx.light);
-        self.tree = EdgeTree::build(&self.edges);
-        self.kept = kept::KeptEdges::build(ctx.scene, ctx.light);
-        // Never 0 (an unprepared plugin's), never reused in this process.
-        static NEXT_ID: AtomicU64 = AtomicU64::new(1);
-        self.id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
+        self.occluders = OccluderEdges::build(ctx.scene, ctx.light);
         Ok(())
     }
 
@@ -257,7 +239,7 @@ impl LightShadowing for Silhouette {
     fn counters(&self) -> Vec<(&'static str, u64)> {
         let c = &self.counters;
         let load = |a: &AtomicU64| a.load(Ordering::Relaxed);
-        let s = &self.edges.stats;
+        let s = &self.occluders.edges.stats;
         let mut out = vec![
             ("silhouette_points", load(&c.points)),
             ("shadow_rays", load(&c.rays)),
@@ -283,8 +265,8 @@ impl LightShadowing for Silhouette {
             ("triangles_alpha_clear", s.alpha_clear_triangles),
             ("triangles_near_light", s.near_light_triangles),
             ("triangles_zero_area", s.zero_area_triangles),
-            ("instances_counted", self.kept.counted),
-            ("instance_mesh_edges", self.kept.mesh_edges),
+            ("instances_counted", self.occluders.kept.counted),
+            ("instance_mesh_edges", self.occluders.kept.mesh_edges),
         ];
         // `traced`'s shaft counters (its rays are never traced through it).
         out.extend(self.stream.shaft_counters());
@@ -292,6 +274,6 @@ impl LightShadowing for Silhouette {
     }
 
     fn memory_bytes(&self) -> u64 {
-        self.edges.bytes() + self.tree.bytes() + self.kept.bytes()
+        self.occluders.bytes()
     }
 }

@@ -1,10 +1,10 @@
 //! One point's visibility from its silhouette edges (see the module doc of `silhouette`):
 //! the shaft's candidates, their weights and projections, the counts, one ray.
 
-use super::counting::{ActiveEdge, Binned, EdgeRows, count_edges, is_reference};
-use super::projection::Frame;
+use super::counting::{Binned, EdgeRows, count_edges, is_reference};
 use super::scratch::{MIXED, MIXED_BLOCKED, MIXED_LIT, SCRATCH, Scratch};
 use super::{Fallback, Silhouette};
+use crate::silhouette_edges::projection::{ActiveEdge, Frame};
 use glam::{DVec2, Vec3};
 use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;
@@ -95,7 +95,7 @@ fn one_ray(
     s: &mut Scratch,
 ) -> Result<Option<f32>, Fallback> {
     side_edges((plugin, scene), above, s)?;
-    if !(s.active.is_empty() && s.regions.is_empty()) {
+    if !(s.edges.active.is_empty() && s.edges.regions.is_empty()) {
         return Ok(None);
     }
     let Some(first) = samples.at(0) else { return Ok(None) };
@@ -182,14 +182,16 @@ fn side_edges((plugin, scene): (&Silhouette, &Scene), side: &Side, s: &mut Scrat
     let shaft = Shaft::new(light, &side.point).ok_or(Fallback::NoShaft)?.without_cut();
     let (nx, ny) = side.strata;
     let n = (nx * ny) as usize;
-    s.gather((plugin, scene), &shaft, frame.o, MAX_CANDIDATES_PER_SAMPLE_QUARTERS * n / 4)?;
-    s.activate(plugin, &frame)?;
+    let occluders = &plugin.occluders;
+    let max_candidates = MAX_CANDIDATES_PER_SAMPLE_QUARTERS * n / 4;
+    s.edges.gather(occluders, light, scene, &shaft, frame.o, max_candidates)?;
+    s.edges.activate(occluders, &frame);
     let c = &plugin.counters;
-    c.edges_tested.fetch_add(s.candidates.len() as u64, Ordering::Relaxed);
-    c.edges_active.fetch_add(s.active.len() as u64, Ordering::Relaxed);
+    c.edges_tested.fetch_add(s.edges.candidates.len() as u64, Ordering::Relaxed);
+    c.edges_active.fetch_add(s.edges.active.len() as u64, Ordering::Relaxed);
     // The profile's per-pixel unit of this method's own work: its active edges.
-    renderer::util::pixel_cost::count_lookups(s.active.len() as u64);
-    if 4 * s.active.len() > MAX_EDGES_PER_SAMPLE_QUARTERS * n {
+    renderer::util::pixel_cost::count_lookups(s.edges.active.len() as u64);
+    if 4 * s.edges.active.len() > MAX_EDGES_PER_SAMPLE_QUARTERS * n {
         return Err(Fallback::Costly);
     }
     Ok(())
@@ -208,27 +210,27 @@ fn side_counts(plugin: &Silhouette, side: &Side, s: &mut Scratch) -> Result<(), 
     // Where the shaft covers the whole light and no flagged triangle is near, no sample of
     // this side is uncertain for these reasons: skip the pass (most counted points).
     let covered = shaft::covers_light(&side.point, side.origin, light);
-    if !(covered && s.regions.is_empty()) {
+    if !(covered && s.edges.regions.is_empty()) {
         for (k, x) in s.samples.iter().enumerate() {
             if on_side(x) && !x.proven {
                 s.uncertain[k] |= !cover.covers(sign * x.height, x.target - side.point.p);
             }
         }
-        if !s.regions.is_empty() {
+        if !s.edges.regions.is_empty() {
             s.test_regions(side.strata, side.below);
         }
     }
-    if s.active.is_empty() {
+    if s.edges.active.is_empty() {
         return Ok(());
     }
-    let r = reference(&s.active)?;
+    let r = reference(&s.edges.active)?;
     s.bin(side.strata, side.below);
     let (nx, ny) = side.strata;
     let (nx, ny) = (nx as usize, ny as usize);
     let cells = nx * ny;
-    let Scratch { active, plans, starts, cell_steps, a, b, grid_rel, near, order, rel, uncertain, .. } = s;
+    let Scratch { edges, plans, starts, cell_steps, a, b, grid_rel, near, order, rel, uncertain, .. } = s;
     plans.clear();
-    plans.extend(active.iter().map(|e| EdgeRows::new(e, r, ny)));
+    plans.extend(edges.active.iter().map(|e| EdgeRows::new(e, r, ny)));
     cell_steps.clear();
     cell_steps.resize(cells + 1, 0);
     let binned = Binned { grid: (nx, ny), starts, a, b, rel: grid_rel, near };
@@ -283,7 +285,7 @@ fn lit_count(
             // The triangles left out of the counting are not met by a settled sample's ray,
             // except alpha-tested ones with holes: the ray passes them all, so that it
             // measures the count's constant alone.
-            let flags = &plugin.edges.flags;
+            let flags = &plugin.occluders.edges.flags;
             let blocked = samples.occluded_except(scene, &s.samples[m], |slot| flags[slot] != 0);
             Ok((!blocked).then_some(s.rel[m]))
         }
@@ -311,7 +313,7 @@ fn test_mixed(
         if s.mixed[k] != MIXED || s.uncertain[k] || (x.height < 0.0) != below {
             continue;
         }
-        let regions = &s.regions;
+        let regions = &s.edges.regions;
         let slots = pairs.iter().map(|&p| {
             tests += 1;
             regions[p as u32 as usize].slot as usize
@@ -331,12 +333,12 @@ fn count_cells(
     samples: &PointSamples,
     s: &mut Scratch,
 ) -> Result<Option<f32>, Fallback> {
-    let r = reference(&s.active)?;
+    let r = reference(&s.edges.active)?;
     let (nx, ny) = samples.strata();
     let (nx, ny, cells) = (nx as usize, ny as usize, (nx * ny) as usize);
-    let Scratch { active, plans, starts, cell_steps, a, b, grid_rel: rel, near, drawn, .. } = s;
+    let Scratch { edges, plans, starts, cell_steps, a, b, grid_rel: rel, near, drawn, .. } = s;
     plans.clear();
-    plans.extend(active.iter().map(|e| EdgeRows::new(e, r, ny)));
+    plans.extend(edges.active.iter().map(|e| EdgeRows::new(e, r, ny)));
     for v in [&mut *a, &mut *b] {
         v.clear();
         v.resize(cells, f32::NAN);
@@ -476,7 +478,7 @@ pub(super) fn count(
         }
         if gathered
             && samples.plain_grid()
-            && s.regions.is_empty()
+            && s.edges.regions.is_empty()
             && let Some(v) = count_cells(plugin, scene, samples, s)?
         {
             plugin.counters.points_by_cell.fetch_add(1, Ordering::Relaxed);

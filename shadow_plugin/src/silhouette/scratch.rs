@@ -1,31 +1,18 @@
 //! One point's working memory, per thread (allocated once, reused by every query): the
-//! shaft's candidates, the active edges and flagged triangles' regions, the samples with
-//! their counts and marks, and the strata grid's bins; with the passes that fill them.
+//! shaft's candidates, the active edges and flagged triangles' regions (an `EdgeScratch`,
+//! filled in `silhouette_edges`), the samples with their counts and marks, and the strata
+//! grid's bins; with the passes that fill these.
 
-use super::blocks::{Blocks, vertex_a};
-use super::candidate::{Candidate, VARIES};
-use super::counting::{ActiveEdge, EdgeRows};
-use super::edges::ALPHA;
-use super::projection::{Frame, Region, exact_orient_sign, orient_sign, push};
-use super::{Fallback, Silhouette};
-use glam::{DVec2, DVec3};
-use renderer::Scene;
-use renderer::geometry::shaft::Shaft;
+use super::counting::EdgeRows;
+use crate::silhouette_edges::EdgeScratch;
+use glam::DVec2;
 use renderer::methods::sample_stream::LightSample;
 use std::cell::RefCell;
 
 #[derive(Default)]
 pub(super) struct Scratch {
-    /// The blocks' candidate lists (shared by neighbouring points).
-    pub(super) blocks: Blocks,
-    pub(super) candidates: Vec<Candidate>,
-    /// Edge ids of a walk for one point alone.
-    pub(super) walked: Vec<u32>,
-    /// Flagged triangles in the shaft (left out of the counting).
-    pub(super) excluded: Vec<u32>,
-    pub(super) active: Vec<ActiveEdge>,
-    /// The excluded triangles' projections over the light, grown by their bands.
-    pub(super) regions: Vec<Region>,
+    /// The shaft's candidates, the active edges and the flagged triangles' regions.
+    pub(super) edges: EdgeScratch,
     pub(super) samples: Vec<LightSample>,
     pub(super) rel: Vec<i32>,
     pub(super) uncertain: Vec<bool>,
@@ -64,58 +51,6 @@ thread_local! {
 }
 
 impl Scratch {
-    /// The shaft's candidates: potential silhouette edges, and flagged triangles. Read from
-    /// the block of `origin` ([`Blocks`]), filtered by the point's own shaft; walked for the
-    /// point alone where no block applies.
-    pub(super) fn gather(
-        &mut self,
-        (plugin, scene): (&Silhouette, &Scene),
-        shaft: &Shaft,
-        origin: DVec3,
-        max_candidates: usize,
-    ) -> Result<(), Fallback> {
-        self.candidates.clear();
-        self.excluded.clear();
-        let (set, tree) = (&plugin.edges, &plugin.tree);
-        let light = plugin.light();
-        // A block with more candidates than the counting pays for is refused before any is
-        // filtered, its walk stopped early.
-        match self.blocks.list(
-            plugin.id,
-            light,
-            (set, tree, &plugin.kept),
-            scene,
-            origin.as_vec3(),
-            max_candidates,
-        ) {
-            Some(Ok(list)) => {
-                self.candidates
-                    .extend(list.candidates.iter().filter(|c| !shaft.segment_outside_hull(c.a, c.b)));
-                for &slot in list.triangles {
-                    let [a, b, c] = set.corners[slot as usize].map(|i| vertex_a(set, i));
-                    if !shaft.triangle_outside(a, b, c) {
-                        self.excluded.push(slot);
-                    }
-                }
-                Ok(())
-            }
-            // Too many candidates, or a tree too deep for the traversal's stack.
-            Some(Err(why)) => Err(why),
-            None => {
-                self.walked.clear();
-                let (walked, excluded) = (&mut self.walked, &mut self.excluded);
-                let complete = tree.gather(set, shaft, (origin, 0.0), walked, excluded, usize::MAX);
-                self.candidates
-                    .extend(self.walked.iter().map(|&p| Candidate::new(&tree.records[p as usize], VARIES)));
-                let mut count = 0;
-                let budget = (&mut count, usize::MAX);
-                let kept_complete =
-                    plugin.kept.gather(scene, shaft, (origin, 0.0), false, &mut self.candidates, budget)?;
-                if complete && kept_complete { Ok(()) } else { Err(Fallback::NoShaft) }
-            }
-        }
-    }
-
     /// Bins this side's counted samples by cell of the strata grid (a counting sort, so that
     /// a row's cells i0..i1 are one range of `order`): an edge then visits only the rows and
     /// columns it can reach, also for samples the horizon warp moved off their strata.
@@ -168,10 +103,10 @@ impl Scratch {
     pub(super) fn test_regions(&mut self, (nx, ny): (u32, u32), below: bool) {
         let (nx, ny) = (nx as usize, ny as usize);
         let Scratch {
+            edges: EdgeScratch { regions, .. },
             samples,
             uncertain,
             mixed,
-            regions,
             starts,
             cursor,
             order,
@@ -246,50 +181,6 @@ impl Scratch {
                 _ => {}
             }
         }
-    }
-
-    /// The candidates active for this point (weight != 0 and over the light), and the bands
-    /// of zero-area triangles' sides.
-    pub(super) fn activate(&mut self, plugin: &Silhouette, frame: &Frame) -> Result<(), Fallback> {
-        self.active.clear();
-        let set = &plugin.edges;
-        let vertex = |i: u32| set.vertices[i as usize].as_dvec3();
-        for c in &self.candidates {
-            let (e0, e1) = (c.a.as_dvec3(), c.b.as_dvec3());
-            let (d0, d1) = (e0 - frame.o, e1 - frame.o);
-            let n = d0.cross(d1);
-            let mut weight = c.weight as i32;
-            if c.weight == VARIES {
-                let n_abs = DVec3::new(
-                    (d0.y * d1.z).abs() + (d0.z * d1.y).abs(),
-                    (d0.z * d1.x).abs() + (d0.x * d1.z).abs(),
-                    (d0.x * d1.y).abs() + (d0.y * d1.x).abs(),
-                );
-                let face = |c: DVec3| {
-                    orient_sign(n, n_abs, c, frame.o).unwrap_or_else(|| exact_orient_sign(frame.o, e0, e1, c))
-                };
-                weight = c.thirds[..c.faces as usize].iter().map(|t| face(t.as_dvec3())).sum();
-                if c.faces == 0 {
-                    // More than two faces: read from the set.
-                    let edge = set.edges[c.edge as usize];
-                    let thirds = &set.thirds[edge.first as usize..(edge.first + edge.count) as usize];
-                    weight = thirds.iter().map(|&t| face(vertex(t))).sum();
-                }
-            }
-            if weight != 0 {
-                push(&mut self.active, frame, e0, e1, n, weight);
-            }
-        }
-        self.regions.clear();
-        for &slot in &self.excluded {
-            let c = set.corners[slot as usize];
-            if let Some(mut region) = Region::new(frame, [vertex(c[0]), vertex(c[1]), vertex(c[2])]) {
-                region.slot = slot;
-                region.alpha_only = set.flags[slot as usize] == ALPHA;
-                self.regions.push(region);
-            }
-        }
-        Ok(())
     }
 }
 

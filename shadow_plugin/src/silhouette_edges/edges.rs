@@ -94,6 +94,11 @@ impl EdgeSet {
             + self.group_ends.len() * 4) as u64
     }
 
+    /// The welded corners of the triangle in `slot` (a flagged one's, for its region).
+    pub fn triangle(&self, slot: u32) -> [DVec3; 3] {
+        self.corners[slot as usize].map(|i| self.vertices[i as usize].as_dvec3())
+    }
+
     /// The edge set of `scene`'s triangles for `light`.
     pub fn build(scene: &Scene, light: &RectLight) -> EdgeSet {
         let n = scene.triangles.len();

@@ -5,22 +5,34 @@
 use super::edge_tree::EdgeRecord;
 use glam::{DVec3, Vec3, Vec3A};
 
+/// Why a point's candidates cannot be handed over: it is then traced whole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum GatherRefusal {
+    /// More candidates than the caller pays for (`max_candidates`): the walk stops there.
+    TooManyCandidates,
+    /// The walk could not finish (a tree deeper than the traversal's stack), or the point
+    /// has no shaft.
+    NoShaft,
+    /// The shaft meets a kept instance the counting does not answer for (`kept.rs`).
+    KeptInstance,
+}
+
 /// A candidate's weight is not the same over the block: each point computes its own.
-pub(super) const VARIES: i8 = i8::MIN;
+pub(crate) const VARIES: i8 = i8::MIN;
 
 /// A candidate edge as the per-point passes read it: flat, in the walk's order (no scattered
 /// vertex loads per point).
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Candidate {
-    pub(super) a: Vec3A,
-    pub(super) b: Vec3A,
+pub(crate) struct Candidate {
+    pub(crate) a: Vec3A,
+    pub(crate) b: Vec3A,
     /// The third corners of its faces (the first `faces`; none for an edge of more than
     /// two, whose faces are read from the set by `edge`).
-    pub(super) thirds: [Vec3; 2],
-    pub(super) edge: u32,
+    pub(crate) thirds: [Vec3; 2],
+    pub(crate) edge: u32,
     /// Its weight over the whole block, or [`VARIES`].
-    pub(super) weight: i8,
-    pub(super) faces: u8,
+    pub(crate) weight: i8,
+    pub(crate) faces: u8,
 }
 
 impl Candidate {
@@ -59,14 +71,14 @@ pub(super) fn block_weight(r: &EdgeRecord, centre: DVec3, radius: f64) -> i8 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::silhouette::edges::{Edge, EdgeSet};
-    use crate::silhouette::projection::exact_orient_sign;
+    use crate::silhouette_edges::edges::{Edge, EdgeSet};
+    use crate::silhouette_edges::projection::exact_orient_sign;
 
     /// Where a block keeps an edge's weight, every origin in its ball has that weight by the
     /// exact predicate (random edges with two faces, random balls, some touching a plane).
     #[test]
     fn a_kept_weight_is_every_origin_s_exact_weight() {
-        let mut next = crate::silhouette::uniform(0x0b10_c5ee_d000_0001);
+        let mut next = crate::silhouette_edges::uniform(0x0b10_c5ee_d000_0001);
         let mut point = |s: f64| DVec3::new(next(), next(), next()) * 2.0 * s - DVec3::splat(s);
         let (mut kept, mut varies) = (0, 0);
         for _ in 0..3000 {

@@ -18,11 +18,9 @@
 //! The cache is per thread and direct-mapped; which points walk depends on the order
 //! queries arrive in, the answers do not.
 
-use super::Fallback;
-use super::candidate::{Candidate, block_weight};
-use super::edge_tree::EdgeTree;
+use super::candidate::{Candidate, GatherRefusal, block_weight};
 use super::edges::EdgeSet;
-use super::kept::KeptEdges;
+use super::occluders::OccluderEdges;
 use glam::{DVec3, Vec3, Vec3A};
 use renderer::geometry::shaft::Shaft;
 use renderer::util::random::mix64;
@@ -39,11 +37,11 @@ const BLOCK_DIVISOR: f64 = 32.0;
 /// a few rows per cube, a band's cubes fit.
 const ENTRIES: usize = 256;
 
-/// A block of space: the plugin's preparation it belongs to, its level (cube side 2^level)
+/// A block of space: the occluders' build it belongs to ([`OccluderEdges::id`]), its level (cube side 2^level)
 /// and its cube.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct Key {
-    plugin: u64,
+    occluders: u64,
     level: i32,
     cube: [i64; 3],
 }
@@ -52,7 +50,7 @@ impl Key {
     fn slot(&self) -> usize {
         let h = [self.level as u64, self.cube[0] as u64, self.cube[1] as u64, self.cube[2] as u64]
             .iter()
-            .fold(mix64(self.plugin), |h, &k| mix64(h ^ k));
+            .fold(mix64(self.occluders), |h, &k| mix64(h ^ k));
         (h % ENTRIES as u64) as usize
     }
 }
@@ -62,7 +60,7 @@ struct Entry {
     key: Option<Key>,
     /// Why no point reads this block's list: a tree deeper than the traversal's stack, or
     /// more candidates than the counting pays for (the walk stops there).
-    refused: Option<Fallback>,
+    refused: Option<GatherRefusal>,
     edges: Vec<u32>,
     candidates: Vec<Candidate>,
     triangles: Vec<u32>,
@@ -82,21 +80,21 @@ pub(super) struct BlockList<'a> {
 }
 
 impl Blocks {
-    /// The block holding `origin` for the plugin's preparation `plugin`, walked if the
-    /// cache does not hold it; `None` where no block applies (an origin too near the light
-    /// for its block's ball, or coordinates off any grid), `Some(Err)` where the walk could
-    /// not finish or its list holds more than `max_candidates` (the same for every point of
-    /// a preparation: the sample count's).
+    /// The block holding `origin` for `occluders`, walked if the cache does not hold it;
+    /// `None` where no block applies (an origin too near the light for its block's ball, or
+    /// coordinates off any grid), `Some(Err)` where the walk could not finish or its list
+    /// holds more than `max_candidates` (the same for every point of a preparation: the
+    /// sample count's).
     pub(super) fn list(
         &mut self,
-        plugin: u64,
+        occluders: &OccluderEdges,
         light: &RectLight,
-        (set, tree, kept): (&EdgeSet, &EdgeTree, &KeptEdges),
         scene: &Scene,
         origin: Vec3,
         max_candidates: usize,
-    ) -> Option<Result<BlockList<'_>, Fallback>> {
-        let (key, centre, radius) = block_of(plugin, light, origin)?;
+    ) -> Option<Result<BlockList<'_>, GatherRefusal>> {
+        let (key, centre, radius) = block_of(occluders.id, light, origin)?;
+        let (set, tree, kept) = (&occluders.edges, &occluders.tree, &occluders.kept);
         if self.entries.is_empty() {
             self.entries.resize_with(ENTRIES, Entry::default);
         }
@@ -115,9 +113,9 @@ impl Blocks {
             let (edges, triangles) = (&mut entry.edges, &mut entry.triangles);
             let complete = tree.gather(set, &shaft, (centre, radius), edges, triangles, max_walked);
             entry.refused = if edges.len() > max_walked {
-                Some(Fallback::Costly)
+                Some(GatherRefusal::TooManyCandidates)
             } else if !complete {
-                Some(Fallback::NoShaft)
+                Some(GatherRefusal::NoShaft)
             } else {
                 None
             };
@@ -142,13 +140,13 @@ impl Blocks {
                     (&mut walked, max_walked),
                 ) {
                     Err(why) => Some(why),
-                    Ok(_) if walked > max_walked => Some(Fallback::Costly),
-                    Ok(false) => Some(Fallback::NoShaft),
+                    Ok(_) if walked > max_walked => Some(GatherRefusal::TooManyCandidates),
+                    Ok(false) => Some(GatherRefusal::NoShaft),
                     Ok(true) => None,
                 };
             }
             if entry.refused.is_none() && entry.candidates.len() > max_candidates {
-                entry.refused = Some(Fallback::Costly);
+                entry.refused = Some(GatherRefusal::TooManyCandidates);
             }
             entry.key = Some(key);
         }
@@ -162,7 +160,7 @@ impl Blocks {
 
 /// The block of `origin`: its key, its ball's centre and radius (f64). The cube's side is
 /// the power of two at or under the distance to the light's centre over [`BLOCK_DIVISOR`].
-fn block_of(plugin: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVec3, f64)> {
+fn block_of(occluders: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVec3, f64)> {
     let o = origin.as_dvec3();
     let dist = (o - light.center.as_dvec3()).length();
     // floor(log2(x)) from the exponent's bits (normal numbers only; no libm call).
@@ -186,7 +184,7 @@ fn block_of(plugin: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVec3,
     // Half the cube's diagonal, a rounding over.
     let radius = 0.5 * side * 3f64.sqrt() * (1.0 + 1e-12);
     let cube = [cell.x as i64, cell.y as i64, cell.z as i64];
-    Some((Key { plugin, level, cube }, centre, radius))
+    Some((Key { occluders, level, cube }, centre, radius))
 }
 
 /// Vertex `i` of `set` as the shaft tests read it.

@@ -1,7 +1,7 @@
 //! `kept.rs`'s margins against the exact predicate on placed edges.
 
 use super::*;
-use crate::silhouette::projection::exact_orient_sign;
+use crate::silhouette_edges::projection::exact_orient_sign;
 use glam::{DMat4, DQuat};
 use renderer::geometry::instances::Placing;
 use std::sync::Arc;
@@ -16,7 +16,7 @@ use std::sync::Arc;
 /// rounding.)
 #[test]
 fn an_edge_the_mesh_space_tests_drop_is_dead_where_it_is_placed() {
-    let stream = std::cell::RefCell::new(crate::silhouette::uniform(0x1234_5678_9abc_def1));
+    let stream = std::cell::RefCell::new(crate::silhouette_edges::uniform(0x1234_5678_9abc_def1));
     let next = || (stream.borrow_mut())();
     let r = || next() * 2.0 - 1.0;
     let light = RectLight::new(Vec3::new(0.0, 50.0, 0.0), Vec3::X, Vec3::Z, Vec3::ONE);

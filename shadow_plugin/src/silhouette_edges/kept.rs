@@ -1,4 +1,4 @@
-//! `silhouette` on kept instances ([`renderer::Scene::instanced`]): each stored mesh's edges
+//! Silhouette edges on kept instances ([`renderer::Scene::instanced`]): each stored mesh's edges
 //! are found once, in the mesh's own space, under a tree with normal cones; a point's walk
 //! enters the mesh's tree for every instance its shaft meets and places each edge it keeps
 //! in render space with the loader's arithmetic ([`InstancedScene::render_triangle`]'s:
@@ -12,14 +12,13 @@
 //! lies on), with the ball of origins carried there and grown by how far the f32 rounding
 //! of the placed corners can tilt a face's plane at that distance (`tilt_margin`).
 //!
-//! An instance the counting cannot answer for is not counted: any point whose shaft meets it
-//! is traced whole (`points_fallback_kept_instance`). These are the ones with an
+//! An instance the counting cannot answer for is not counted: a point whose shaft meets it is
+//! refused ([`GatherRefusal::KeptInstance`]; `silhouette` traces it whole). These are the ones with an
 //! alpha-tested material, a triangle near the light's plane (as [`super::edges`] flags
 //! them), or a nearly singular transform. An edge of more than two faces is split into
 //! edges of one face (the counts are sums over faces).
 
-use super::Fallback;
-use super::candidate::{Candidate, VARIES, block_weight};
+use super::candidate::{Candidate, GatherRefusal, VARIES, block_weight};
 use super::edge_tree::{Cone, EdgeRecord, cones, parents_first};
 use super::welding::{pack_side, unpack_side};
 use glam::{DMat3, DVec3, Vec3, Vec3A};
@@ -36,15 +35,15 @@ use std::time::Duration;
 
 /// The kept instances' edges for one light.
 #[derive(Default)]
-pub(super) struct KeptEdges {
+pub(crate) struct KeptEdges {
     meshes: Vec<MeshEdges>,
     /// Per placed instance: how its edges are carried, or `None` where it is not counted.
     instances: Vec<Option<Carry>>,
     /// The light's corners grown as [`super::edges`] grows them (render space).
     light_corners: [DVec3; 4],
     /// Counted instances, and the unique edges of their meshes (the run report).
-    pub(super) counted: u64,
-    pub(super) mesh_edges: u64,
+    pub(crate) counted: u64,
+    pub(crate) mesh_edges: u64,
 }
 
 /// What bounds one instance's move between render space and its mesh's.
@@ -123,7 +122,7 @@ impl std::fmt::Debug for KeptEdges {
 
 impl KeptEdges {
     /// The edges of `scene`'s kept instances for `light` (empty without any).
-    pub(super) fn build(scene: &Scene, light: &RectLight) -> KeptEdges {
+    pub(crate) fn build(scene: &Scene, light: &RectLight) -> KeptEdges {
         let Some(inst) = &scene.instanced else { return KeptEdges::default() };
         let meshes: Vec<MeshEdges> = inst.meshes.par_iter().map(MeshEdges::build).collect();
         let near = super::edges::near_light_band(scene, light);
@@ -161,7 +160,7 @@ impl KeptEdges {
     }
 
     /// Bytes held.
-    pub(super) fn bytes(&self) -> u64 {
+    pub(crate) fn bytes(&self) -> u64 {
         let mesh = |m: &MeshEdges| {
             let nodes = m.bvh.as_ref().map_or(0, |b| b.nodes.len() * std::mem::size_of_val(&b.nodes[0]));
             nodes
@@ -178,7 +177,7 @@ impl KeptEdges {
     /// out; else [`VARIES`] (a single origin, `radius` 0). `walked` counts the edges the
     /// shaft test keeps; the walk stops with `Ok(false)` once it exceeds `max_walked`.
     /// `Err` where the shaft meets an instance that is not counted.
-    pub(super) fn gather(
+    pub(crate) fn gather(
         &self,
         scene: &Scene,
         shaft: &Shaft,
@@ -186,7 +185,7 @@ impl KeptEdges {
         weights: bool,
         out: &mut Vec<Candidate>,
         (walked, max_walked): (&mut usize, usize),
-    ) -> Result<bool, Fallback> {
+    ) -> Result<bool, GatherRefusal> {
         let Some(inst) = &scene.instanced else { return Ok(true) };
         let mut refused = None;
         let complete = shaft::shaft_leaves(
@@ -200,7 +199,7 @@ impl KeptEdges {
                         continue;
                     }
                     let Some(carry) = &self.instances[pi as usize] else {
-                        refused = Some(Fallback::KeptInstance);
+                        refused = Some(GatherRefusal::KeptInstance);
                         return false;
                     };
                     let mesh = &self.meshes[p.mesh as usize];

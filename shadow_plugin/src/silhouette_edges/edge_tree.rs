@@ -377,7 +377,7 @@ mod tests {
     /// empty, one group alone).
     #[test]
     fn a_joined_tree_holds_every_item_once_in_boxes_that_bound_them() {
-        let mut uniform = crate::silhouette::uniform(0x6a09_e667_f3bc_c908);
+        let mut uniform = crate::silhouette_edges::uniform(0x6a09_e667_f3bc_c908);
         let mut next = || uniform() as f32;
         for round in 0..40 {
             let n = 1 + (next() * 300.0) as usize;
@@ -418,7 +418,7 @@ mod tests {
     /// and it does claim so for origins far along its axis.
     #[test]
     fn a_cone_prunes_only_where_every_plane_agrees() {
-        let mut uniform = crate::silhouette::uniform(0x2545_f491_4f6c_dd1d);
+        let mut uniform = crate::silhouette_edges::uniform(0x2545_f491_4f6c_dd1d);
         let mut next = || uniform() * 2.0 - 1.0;
         let (mut claimed, mut far_claimed, mut ball_claimed) = (0, 0, 0);
         for _ in 0..300 {

@@ -6,7 +6,6 @@
 //! `MARGIN`) before any division; each vertex projects by a function of itself and `o` alone,
 //! so edges sharing a vertex share its projection bit for bit.
 
-use super::counting::ActiveEdge;
 use glam::{DVec2, DVec3, Vec3};
 
 /// Light-space margin (in units of the light's sides) an edge is kept to: samples lie in
@@ -16,99 +15,80 @@ pub(super) const MARGIN: f64 = 0.02;
 /// The band's ulps (of the light's coordinates for the ray's aim, taken 4 times over; of the
 /// edge's in f64 for the watertight test's frame) within which a sample's shadow ray may pass
 /// an edge and `traced`'s test may go either way: such samples are traced. Measured
-/// (`band_tests.rs`: samples placed across random edges' lines, near the point and seen
+/// (`silhouette/band_tests.rs`: samples placed across random edges' lines, near the point and seen
 /// end-on too, traced with the renderer's ray and watertight test): every disagreement lies
 /// within 0.1 of the band. (64 before that test: on metal-rough-spheres, 4x more samples
 /// traced, and points with no reference point clear of every band.)
 pub(super) const BAND_ULPS: f64 = 16.0;
 
+/// An edge active for this point, as affine functions of a sample's light coordinates.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct ActiveEdge {
+    /// `side(a, b) = s0 + sa a + sb b`: orient3d(o, e0, e1, s) scaled to O(1), the sign of the
+    /// sample's side. In f32, like the samples: the band covers its rounding.
+    pub(crate) side: [f32; 3],
+    /// |side| under this at a sample: it is traced (`traced`'s own f32 ray test may go
+    /// either way there, and this side's evaluation).
+    pub(crate) band: f32,
+    /// |side| under this at a point of a path (the reference, C_j, M): its sign is not
+    /// sure. Only this side's own evaluation (f64 coefficients rounded to f32, an f32
+    /// evaluation) matters there: no ray is aimed at a path's points, the count changes
+    /// where the path crosses the exact projection.
+    pub(crate) path_band: f32,
+    /// The clipped projection's ends.
+    pub(crate) p0: DVec2,
+    pub(crate) p1: DVec2,
+    /// The sum of the incident faces' orientations.
+    pub(crate) weight: i32,
+}
+
+impl ActiveEdge {
+    #[inline(always)]
+    pub(crate) fn side_at(&self, a: f32, b: f32) -> f32 {
+        self.side[0] + self.side[1] * a + self.side[2] * b
+    }
+}
+
 /// A flagged triangle's projection over the light: a convex polygon in light coordinates
 /// (the triangle clipped to the slab between o's plane and the light's, and to the grown
 /// light), as edge lines `l0 + la a + lb b >= -margin` inside, normalised to distance.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Region {
-    pub(super) lines: [[f64; 3]; MAX_POLYGON],
-    pub(super) count: usize,
-    pub(super) margin: f64,
+pub(crate) struct Region {
+    pub(crate) lines: [[f64; 3]; MAX_POLYGON],
+    pub(crate) count: usize,
+    pub(crate) margin: f64,
     /// A box holding the grown polygon (infinite where a corner is too sharp to bound): most
     /// samples are rejected by it alone (glass-vase-flowers: the per-sample region tests
     /// were ~45% of the method's time).
-    pub(super) lo: DVec2,
-    pub(super) hi: DVec2,
+    pub(crate) lo: DVec2,
+    pub(crate) hi: DVec2,
     /// The triangle, and whether alpha (holes) is its only flag: then a sample the opaque
     /// count leaves lit is tested against it alone, not traced.
-    pub(super) slot: u32,
-    pub(super) alpha_only: bool,
+    pub(crate) slot: u32,
+    pub(crate) alpha_only: bool,
 }
 
 /// A triangle clipped by six planes has at most nine sides.
-pub(super) const MAX_POLYGON: usize = 9;
+pub(crate) const MAX_POLYGON: usize = 9;
+
+/// A triangle's projection over the light ([`Frame::clip_triangle`]): a convex polygon in
+/// light coordinates.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Projected {
+    /// The corners in order (the first `count`).
+    pub(crate) corners: [DVec2; MAX_POLYGON],
+    pub(crate) count: usize,
+    /// The corners' smallest depth from o, as a fraction of o's height over the light (1 on
+    /// the light's plane).
+    pub(crate) lambda_min: f64,
+}
 
 /// A clipping constraint on a homogeneous point (o's height, a tiny height): inside >= 0.
 type Constraint = fn(&[f64; 3], f64, f64) -> f64;
 
 impl Region {
-    pub(super) fn new(frame: &Frame, v: [DVec3; 3]) -> Option<Region> {
-        // Homogeneous clipping (Sutherland-Hodgman) against w > 0, w <= height (the light's
-        // plane) and the grown rectangle; all affine in the 3D point.
-        let mut poly = [[0.0f64; 3]; MAX_POLYGON];
-        let mut n = 3;
-        for (k, x) in v.iter().enumerate() {
-            poly[k] = frame.project(*x);
-        }
-        let h = frame.height;
-        let tiny = 1e-9 * h;
-        // Wholly between o's plane and the light's, not near o's (leaves between a point and
-        // its light): the triangle itself, unclipped. The light's rectangle only trims what
-        // no sample reaches; `lambda_min` over the whole triangle is at most the trimmed
-        // one's; and the projection is magnified at most 100 times, so the lines' constants
-        // keep their precision far under the margin (which grows with the magnitudes).
-        let inside_slab = poly[..3].iter().all(|p| p[2] >= 1e-2 * h && h - p[2] >= 0.0);
-        let constraints: [Constraint; 6] = [
-            |p, _, tiny| p[2] - tiny,
-            |p, h, _| h - p[2],
-            |p, _, _| p[0] + MARGIN * p[2],
-            |p, _, _| (1.0 + MARGIN) * p[2] - p[0],
-            |p, _, _| p[1] + MARGIN * p[2],
-            |p, _, _| (1.0 + MARGIN) * p[2] - p[1],
-        ];
-        for g in constraints.into_iter().filter(|_| !inside_slab) {
-            let mut out = [[0.0f64; 3]; MAX_POLYGON];
-            let mut m = 0;
-            for k in 0..n {
-                let (a, b) = (poly[k], poly[(k + 1) % n]);
-                let (ga, gb) = (g(&a, h, tiny), g(&b, h, tiny));
-                if ga >= 0.0 {
-                    out[m] = a;
-                    m += 1;
-                }
-                if (ga >= 0.0) != (gb >= 0.0) && m < out.len() {
-                    let t = ga / (ga - gb);
-                    out[m] = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])];
-                    m += 1;
-                }
-            }
-            if m == 0 {
-                return None;
-            }
-            (poly, n) = (out, m);
-        }
-        let mut pts = [DVec2::ZERO; MAX_POLYGON];
-        for (pt, p) in pts.iter_mut().zip(&poly[..n]) {
-            *pt = DVec2::new(p[0] / p[2], p[1] / p[2]);
-        }
-        // Unclipped: wholly beyond one side of the grown light, as the clipping would have
-        // found (a region there held no sample, but cost the point its cheaper paths).
-        if inside_slab {
-            let (lo, hi) = (
-                pts[..3].iter().fold(DVec2::INFINITY, |m, p| m.min(*p)),
-                pts[..3].iter().fold(DVec2::NEG_INFINITY, |m, p| m.max(*p)),
-            );
-            if hi.x < -MARGIN || hi.y < -MARGIN || lo.x > 1.0 + MARGIN || lo.y > 1.0 + MARGIN {
-                return None;
-            }
-        }
-        let lambda_min = poly[..n].iter().map(|p| p[2] / h).fold(f64::INFINITY, f64::min);
+    pub(crate) fn new(frame: &Frame, v: [DVec3; 3]) -> Option<Region> {
+        let Projected { corners: pts, count: n, lambda_min } = frame.clip_triangle(v)?;
         // A 3D displacement d at depth lambda moves the projection by d / lambda: the band of
         // the triangle's coordinates, in light units.
         let magnitude = v.iter().fold(frame.magnitude, |m, x| m.max(x.abs().max_element()));
@@ -162,7 +142,7 @@ impl Region {
 
     /// Whether the sample at `p` may see its ray meet the triangle.
     #[inline]
-    pub(super) fn holds(&self, p: DVec2) -> bool {
+    pub(crate) fn holds(&self, p: DVec2) -> bool {
         p.cmpge(self.lo).all()
             && p.cmple(self.hi).all()
             && self.lines[..self.count].iter().all(|l| l[0] + l[1] * p.x + l[2] * p.y >= -self.margin)
@@ -170,25 +150,25 @@ impl Region {
 }
 
 /// The light's frame in f64, seen from the origin `o`.
-pub(super) struct Frame {
-    pub(super) o: DVec3,
-    pub(super) centre: DVec3,
-    pub(super) u: DVec3,
-    pub(super) v: DVec3,
+pub(crate) struct Frame {
+    pub(crate) o: DVec3,
+    pub(crate) centre: DVec3,
+    pub(crate) u: DVec3,
+    pub(crate) v: DVec3,
     /// u / |u|^2, v / |v|^2: light coordinates of a point in the plane.
-    pub(super) u_dual: DVec3,
-    pub(super) v_dual: DVec3,
-    pub(super) normal: DVec3,
+    pub(crate) u_dual: DVec3,
+    pub(crate) v_dual: DVec3,
+    pub(crate) normal: DVec3,
     /// o's height over the light's plane (> 0).
-    pub(super) height: f64,
+    pub(crate) height: f64,
     /// The largest distance from o to a (grown) light corner.
-    pub(super) reach: f64,
+    pub(crate) reach: f64,
     /// The largest coordinate magnitude of o and the light's corners.
-    pub(super) magnitude: f64,
+    pub(crate) magnitude: f64,
 }
 
 impl Frame {
-    pub(super) fn new(light: &renderer::RectLight, origin: Vec3) -> Option<Frame> {
+    pub(crate) fn new(light: &renderer::RectLight, origin: Vec3) -> Option<Frame> {
         let (centre, u, v) = (light.center.as_dvec3(), light.u.as_dvec3(), light.v.as_dvec3());
         let normal = u.cross(v).normalize();
         let o = origin.as_dvec3();
@@ -217,17 +197,87 @@ impl Frame {
 
     /// `x`'s projection from o in homogeneous light coordinates (a w, b w, w), w = o's
     /// height over the light less x's: affine in x.
-    pub(super) fn project(&self, x: DVec3) -> [f64; 3] {
+    pub(crate) fn project(&self, x: DVec3) -> [f64; 3] {
         let w = self.height - self.normal.dot(x - self.centre);
         let h = (self.o - self.centre) * w + (x - self.o) * self.height;
         [h.dot(self.u_dual) + 0.5 * w, h.dot(self.v_dual) + 0.5 * w, w]
+    }
+
+    /// A triangle's projection from o over the light: the triangle clipped (homogeneous
+    /// Sutherland-Hodgman) to the slab between o's plane and the light's and to the grown
+    /// light, or `None` where nothing of it is left. A triangle wholly in the slab and away
+    /// from o's plane is not clipped (the light's rectangle only trims what no sample
+    /// reaches): its corners may lie beyond the grown light, and it is `None` only where it
+    /// lies wholly beyond one side of it.
+    pub(crate) fn clip_triangle(&self, v: [DVec3; 3]) -> Option<Projected> {
+        // Against w > 0, w <= height (the light's plane) and the grown rectangle; all affine
+        // in the 3D point.
+        let mut poly = [[0.0f64; 3]; MAX_POLYGON];
+        let mut n = 3;
+        for (k, x) in v.iter().enumerate() {
+            poly[k] = self.project(*x);
+        }
+        let h = self.height;
+        let tiny = 1e-9 * h;
+        // Wholly between o's plane and the light's, not near o's (leaves between a point and
+        // its light): the triangle itself, unclipped. The light's rectangle only trims what
+        // no sample reaches; `lambda_min` over the whole triangle is at most the trimmed
+        // one's; and the projection is magnified at most 100 times, so the lines' constants
+        // keep their precision far under the margin (which grows with the magnitudes).
+        let inside_slab = poly[..3].iter().all(|p| p[2] >= 1e-2 * h && h - p[2] >= 0.0);
+        let constraints: [Constraint; 6] = [
+            |p, _, tiny| p[2] - tiny,
+            |p, h, _| h - p[2],
+            |p, _, _| p[0] + MARGIN * p[2],
+            |p, _, _| (1.0 + MARGIN) * p[2] - p[0],
+            |p, _, _| p[1] + MARGIN * p[2],
+            |p, _, _| (1.0 + MARGIN) * p[2] - p[1],
+        ];
+        for g in constraints.into_iter().filter(|_| !inside_slab) {
+            let mut out = [[0.0f64; 3]; MAX_POLYGON];
+            let mut m = 0;
+            for k in 0..n {
+                let (a, b) = (poly[k], poly[(k + 1) % n]);
+                let (ga, gb) = (g(&a, h, tiny), g(&b, h, tiny));
+                if ga >= 0.0 {
+                    out[m] = a;
+                    m += 1;
+                }
+                if (ga >= 0.0) != (gb >= 0.0) && m < out.len() {
+                    let t = ga / (ga - gb);
+                    out[m] = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])];
+                    m += 1;
+                }
+            }
+            if m == 0 {
+                return None;
+            }
+            (poly, n) = (out, m);
+        }
+        let mut pts = [DVec2::ZERO; MAX_POLYGON];
+        for (pt, p) in pts.iter_mut().zip(&poly[..n]) {
+            *pt = DVec2::new(p[0] / p[2], p[1] / p[2]);
+        }
+        // Unclipped: wholly beyond one side of the grown light, as the clipping would have
+        // found (a region there held no sample, but cost the point its cheaper paths).
+        if inside_slab {
+            let (lo, hi) = (
+                pts[..3].iter().fold(DVec2::INFINITY, |m, p| m.min(*p)),
+                pts[..3].iter().fold(DVec2::NEG_INFINITY, |m, p| m.max(*p)),
+            );
+            if hi.x < -MARGIN || hi.y < -MARGIN || lo.x > 1.0 + MARGIN || lo.y > 1.0 + MARGIN {
+                return None;
+            }
+        }
+        let lambda_min = poly[..n].iter().map(|p| p[2] / h).fold(f64::INFINITY, f64::min);
+        Some(Projected { corners: pts, count: n, lambda_min })
     }
 }
 
 /// Sign of orient3d(o, e0, e1, c) = ((e0 - o) x (e1 - o)) . (c - o), or `None` where the f64
 /// rounding could flip it (Shewchuk's static bound on the permanent, doubled): then
 /// [`exact_orient_sign`] decides.
-pub(super) fn orient_sign(n: DVec3, n_abs: DVec3, c: DVec3, o: DVec3) -> Option<i32> {
+pub(crate) fn orient_sign(n: DVec3, n_abs: DVec3, c: DVec3, o: DVec3) -> Option<i32> {
     let d = c - o;
     let det = n.dot(d);
     let bound = 2e-15 * n_abs.dot(d.abs());
@@ -243,7 +293,7 @@ pub(super) fn orient_sign(n: DVec3, n_abs: DVec3, c: DVec3, o: DVec3) -> Option<
 /// The exact sign of orient3d(o, e0, e1, c) (Shewchuk's adaptive predicate, exact for the f64
 /// values of f32 coordinates): 0 where o lies in the face's plane, which no segment from o
 /// then crosses. Rare (a filter miss), so its cost does not matter.
-pub(super) fn exact_orient_sign(o: DVec3, e0: DVec3, e1: DVec3, c: DVec3) -> i32 {
+pub(crate) fn exact_orient_sign(o: DVec3, e0: DVec3, e1: DVec3, c: DVec3) -> i32 {
     let p = |v: DVec3| robust::Coord3D { x: v.x, y: v.y, z: v.z };
     // robust's orient3d(a, b, c, d) = det[a - d, b - d, c - d] = (c - o) . ((e0 - o) x (e1 - o)).
     let det = robust::orient3d(p(c), p(e0), p(e1), p(o));
@@ -258,7 +308,7 @@ pub(super) fn exact_orient_sign(o: DVec3, e0: DVec3, e1: DVec3, c: DVec3) -> i32
 
 /// The clipped projection of edge (e0, e1), or `None` where nothing of it lies over the grown
 /// light between o's plane and the light's.
-pub(super) fn clip(frame: &Frame, e0: DVec3, e1: DVec3) -> Option<(DVec2, DVec2)> {
+pub(crate) fn clip(frame: &Frame, e0: DVec3, e1: DVec3) -> Option<(DVec2, DVec2)> {
     let (h0, h1) = (frame.project(e0), frame.project(e1));
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     // Each constraint g >= 0, g affine along the edge.
@@ -297,7 +347,7 @@ pub(super) fn clip(frame: &Frame, e0: DVec3, e1: DVec3) -> Option<(DVec2, DVec2)
 
 /// Adds edge (e0, e1) (`n` = (e0 - o) x (e1 - o)) to `active` if its projection meets the
 /// grown light.
-pub(super) fn push(active: &mut Vec<ActiveEdge>, frame: &Frame, e0: DVec3, e1: DVec3, n: DVec3, weight: i32) {
+pub(crate) fn push(active: &mut Vec<ActiveEdge>, frame: &Frame, e0: DVec3, e1: DVec3, n: DVec3, weight: i32) {
     {
         let Some((p0, p1)) = clip(frame, e0, e1) else { return };
         let sa = n.dot(frame.u);
@@ -355,7 +405,7 @@ mod tests {
     /// thin, with margins up to 0.05).
     #[test]
     fn a_region_box_holds_every_point_its_lines_accept() {
-        let mut next = crate::silhouette::uniform(0x0bad_5eed_dead_beef);
+        let mut next = crate::silhouette_edges::uniform(0x0bad_5eed_dead_beef);
         let mut bounded = 0;
         for _ in 0..2000 {
             let pts = [0, 1, 2].map(|_| DVec2::new(next(), next()));
@@ -383,11 +433,37 @@ mod tests {
         assert!(bounded > 1900, "only {bounded} boxes finite");
     }
 
+    /// A triangle across o's plane and the light's is clipped to the slab and the grown
+    /// light; one wholly in the slab keeps its own corners, in order.
+    #[test]
+    fn a_clipped_triangle_lies_over_the_grown_light() {
+        let light = renderer::RectLight::new(Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE);
+        let frame = Frame::new(&light, Vec3::new(0.1, 0.2, 1.0)).expect("o above the light");
+        let across = [DVec3::new(-3.0, 0.0, 2.0), DVec3::new(3.0, 0.5, -1.0), DVec3::new(0.0, 3.0, 0.5)];
+        let p = frame.clip_triangle(across).expect("over the light");
+        assert!(p.count > 3 && p.lambda_min > 0.0);
+        for c in &p.corners[..p.count] {
+            assert!(
+                c.cmpge(DVec2::splat(-MARGIN - 1e-9)).all()
+                    && c.cmple(DVec2::splat(1.0 + MARGIN + 1e-9)).all()
+            );
+        }
+        let inside = [DVec3::new(0.0, 0.0, 0.5), DVec3::new(0.2, 0.0, 0.5), DVec3::new(0.0, 0.2, 0.5)];
+        let p = frame.clip_triangle(inside).expect("over the light");
+        assert_eq!(p.count, 3);
+        for (c, x) in p.corners.iter().zip(inside) {
+            let h = frame.project(x);
+            assert_eq!(*c, DVec2::new(h[0] / h[2], h[1] / h[2]));
+        }
+        let beyond = inside.map(|x| x + DVec3::new(5.0, 0.0, 0.0));
+        assert!(frame.clip_triangle(beyond).is_none());
+    }
+
     /// The exact predicate agrees with the filter wherever the filter answers, and decides
     /// where it does not: a point exactly in the plane (0), and one 2^-45 off it.
     #[test]
     fn exact_orientation_decides_what_the_filter_cannot() {
-        let mut uniform = crate::silhouette::uniform(0x9e37_79b9_7f4a_7c15);
+        let mut uniform = crate::silhouette_edges::uniform(0x9e37_79b9_7f4a_7c15);
         let mut next = || uniform() * 20.0 - 10.0;
         let mut point = || DVec3::new(next(), next(), next());
         for _ in 0..10_000 {
@@ -406,7 +482,3 @@ mod tests {
         assert_eq!(exact_orient_sign(o, e0, e1, on_plane - DVec3::new(0.0, 0.0, 2f64.powi(-45))), -1);
     }
 }
-
-#[cfg(test)]
-#[path = "band_tests.rs"]
-mod band_tests;
