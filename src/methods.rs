@@ -11,7 +11,7 @@
 use bench_entry::{BenchEntry, SweepSetting};
 use renderer::interface::method::{default_table, parse_boxed};
 use renderer::{MethodEntry, SceneError, ShadowMethod, TracedParams, Unshadowed};
-use shadow_plugin::{EdgeTableParams, PcssParams, SilhouetteParams};
+use shadow_plugin::{AnalyticParams, EdgeTableParams, PcssParams, SilhouetteParams};
 use std::path::Path;
 
 /// Parses a method's `[shadows.<name>]` table (`prefix` names it in errors).
@@ -71,6 +71,7 @@ pub const METHODS: &[Registered] = &[
     Registered::of::<EdgeTableParams>(),
     Registered::of::<PcssParams>(),
     Registered::of::<SilhouetteParams>(),
+    Registered::of::<AnalyticParams>(),
 ];
 
 /// Methods no longer registered, each with what to use instead: a scene file that names one

@@ -14,6 +14,7 @@ pub mod pcss;
 pub mod silhouette;
 mod silhouette_edges;
 
+pub use analytic::{Analytic, AnalyticParams};
 pub use depth_map::heightfield::Heightfield;
 pub use depth_map::{DepthMap, DepthMapParams, LightFrame, MapSwitches};
 pub use depth_march::{DepthMarch, DepthMarchParams};

@@ -570,7 +570,7 @@ impl Arrangement {
     /// The middle of the longest boundary piece, and D inside it.
     fn longest_boundary_point(&self) -> (DVec2, i32) {
         let mut best = (f64::NEG_INFINITY, DVec2::ZERO, 0);
-        self.for_boundary_pieces(|a, b, rel| {
+        self.for_boundary_pieces(|a, b, rel, _| {
             let len = (b - a).length();
             if len > best.0 {
                 best = (len, 0.5 * (a + b), rel);
@@ -590,13 +590,14 @@ impl Arrangement {
     }
 
     /// Every straight piece of the boundary, counter-clockwise (split at the domain's
-    /// corners and at the segments' ends, whose own points are used), with D inside it.
-    fn for_boundary_pieces(&self, mut f: impl FnMut(DVec2, DVec2, i32)) {
+    /// corners and at the segments' ends, whose own points are used), with D inside it and
+    /// the side it lies on.
+    fn for_boundary_pieces(&self, mut f: impl FnMut(DVec2, DVec2, i32, usize)) {
         let n = self.domain.len();
         let m = self.boundary.len();
         if m == 0 {
             for k in 0..n {
-                f(self.domain[k], self.domain[(k + 1) % n], self.whole_boundary_rel);
+                f(self.domain[k], self.domain[(k + 1) % n], self.whole_boundary_rel, k);
             }
             return;
         }
@@ -607,20 +608,21 @@ impl Arrangement {
             let (mut a, mut corner) = (from.p, from.s.floor() + 1.0);
             while corner < end {
                 let c = self.domain[corner as usize % n];
-                f(a, c, rel);
+                f(a, c, rel, (corner as usize + n - 1) % n);
                 (a, corner) = (c, corner + 1.0);
             }
-            f(a, to.p, rel);
+            f(a, to.p, rel, (corner as usize + n - 1) % n);
         }
     }
 
     /// The lowest depth over every piece of positive length, and a point inside a face with
     /// it: beside the middle of its longest piece, a quarter of the way to the nearest
-    /// other segment.
+    /// other segment or side.
     fn find_min(&mut self) {
         let mut min = i32::MAX;
-        let mut best = (f64::NEG_INFINITY, DVec2::ZERO, DVec2::ZERO);
-        let mut consider = |rel: i32, a: DVec2, b: DVec2, inward_left: bool| {
+        // (length, middle, inward normal, its segment or usize::MAX, its side or usize::MAX)
+        let mut best = (f64::NEG_INFINITY, DVec2::ZERO, DVec2::ZERO, usize::MAX, usize::MAX);
+        let mut consider = |rel: i32, (a, b): (DVec2, DVec2), inward_left: bool, owner: (usize, usize)| {
             let len = (b - a).length();
             if len <= 0.0 {
                 return;
@@ -629,35 +631,30 @@ impl Arrangement {
                 min = rel;
                 let d = (b - a) / len;
                 let normal = if inward_left { d.perp() } else { -d.perp() };
-                best = (len, 0.5 * (a + b), normal);
+                best = (len, 0.5 * (a + b), normal, owner.0, owner.1);
             }
         };
-        self.for_boundary_pieces(|a, b, rel| consider(rel, a, b, true));
+        self.for_boundary_pieces(|a, b, rel, side| consider(rel, (a, b), true, (usize::MAX, side)));
         for s in 0..self.segs.len() {
             let base = self.base[s].expect("every segment has its base");
             let jump = self.segs[s].seg.jump;
             for k in 0..self.pieces(s) {
-                let (a, b) = self.piece_ends(s, k);
+                let ends = self.piece_ends(s, k);
                 let right = self.right(s, base, k);
-                consider(right + jump, a, b, true);
-                consider(right, a, b, false);
+                consider(right + jump, ends, true, (s, usize::MAX));
+                consider(right, ends, false, (s, usize::MAX));
             }
         }
-        // The nearest other segment from the piece's middle (and the boundary's lines).
-        let (len, mid, normal) = best;
+        let (len, mid, normal, seg, side) = best;
         let mut room = 0.5 * len;
-        for c in &self.segs {
-            let dist = distance_to_segment(mid, c.seg.p0, c.seg.p1);
-            if dist > 0.0 {
-                room = room.min(dist);
+        for (j, c) in self.segs.iter().enumerate() {
+            if j != seg {
+                room = room.min(distance_to_segment(mid, c.seg.p0, c.seg.p1));
             }
         }
         let n = self.domain.len();
-        for k in 0..n {
-            let dist = distance_to_segment(mid, self.domain[k], self.domain[(k + 1) % n]);
-            if dist > 0.0 {
-                room = room.min(dist);
-            }
+        for k in (0..n).filter(|&k| k != side) {
+            room = room.min(distance_to_segment(mid, self.domain[k], self.domain[(k + 1) % n]));
         }
         self.min_rel = min;
         self.target = mid + 0.25 * room * normal;
@@ -666,7 +663,7 @@ impl Arrangement {
     /// The oriented pieces bounding the region of depth `level` (counter-clockwise round
     /// it: the region on their left), each given to `f` once.
     pub fn boundary_of(&self, level: i32, mut f: impl FnMut(DVec2, DVec2)) {
-        self.for_boundary_pieces(|a, b, rel| {
+        self.for_boundary_pieces(|a, b, rel, _| {
             if rel == level {
                 f(a, b);
             }

@@ -71,7 +71,7 @@ fn rel_at(arr: &Arrangement, p: DVec2) -> Option<i32> {
             best = Some((y, below));
         }
     };
-    arr.for_boundary_pieces(|a, b, rel| offer(a, b, rel, i32::MIN));
+    arr.for_boundary_pieces(|a, b, rel, _| offer(a, b, rel, i32::MIN));
     for s in 0..arr.segs.len() {
         let base = arr.base[s].unwrap();
         for k in 0..arr.pieces(s) {

@@ -153,6 +153,12 @@ impl Silhouette {
         }
     }
 
+    /// The light's occluder edges, as the last `prepare` built them (read by `analytic`,
+    /// which counts its inexact points with this plugin).
+    pub(crate) fn occluders(&self) -> &OccluderEdges {
+        &self.occluders
+    }
+
     fn light(&self) -> &RectLight {
         self.stream.light().expect("prepare() runs before visibility()")
     }

@@ -1,0 +1,188 @@
+//! One point's V, integrated (see the module doc of `analytic`).
+
+use super::arrangement::{Arrangement, Failure, MAX_DOMAIN, Segment};
+use super::lambert::LightPlane;
+use super::{Analytic, Fallback};
+use crate::silhouette_edges::edges::{ALPHA, NEAR_LIGHT};
+use crate::silhouette_edges::projection::Frame;
+use crate::silhouette_edges::{EdgeScratch, GatherRefusal};
+use glam::DVec2;
+use renderer::geometry::ray_origin::offset_origin;
+use renderer::geometry::shaft::{self, Shaft};
+use renderer::{Scene, ShadowQuery};
+use std::cell::RefCell;
+use std::sync::atomic::Ordering;
+
+/// One thread's working memory, reused by every point.
+#[derive(Default)]
+struct Scratch {
+    edges: EdgeScratch,
+    segments: Vec<Segment>,
+    /// The near-light triangles' outlines (corners in light coordinates, in `corners`).
+    outlines: Vec<(u32, u32)>,
+    corners: Vec<DVec2>,
+    arrangement: Arrangement,
+}
+
+thread_local! {
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
+}
+
+/// V at `q`, or why it must be counted.
+pub(super) fn visibility(plugin: &Analytic, scene: &Scene, q: &ShadowQuery) -> Result<f32, Fallback> {
+    let light = plugin.light();
+    let point = &q.point;
+    // `traced`'s origin for every ray over the geometric tangent plane.
+    let origin = offset_origin(point, point.n_geom);
+    let shaft = Shaft::new(light, point).ok_or(Fallback::NoShaft)?;
+    if scene.shaft_clear(&shaft) && shaft::covers_light(point, origin, light) {
+        return Ok(1.0);
+    }
+    let plane = LightPlane::new(light, point.p.as_dvec3(), point.n_shading.as_dvec3());
+    let mut domain = [DVec2::ZERO; MAX_DOMAIN];
+    let m = plane.domain(&mut domain);
+    if m < 3 {
+        return Err(Fallback::BelowGeometric);
+    }
+    let domain = &domain[..m];
+    // Every ray must start from the one origin over the geometric plane: the domain's
+    // corners above it (the domain is convex).
+    let (o, ng) = (origin.as_dvec3(), point.n_geom.as_dvec3());
+    let (c, u, v) = (light.center.as_dvec3(), light.u.as_dvec3(), light.v.as_dvec3());
+    let world = |q: DVec2| c + (q.x - 0.5) * u + (q.y - 0.5) * v;
+    if domain.iter().any(|&q| ng.dot(world(q) - o) <= 0.0) {
+        return Err(Fallback::BelowGeometric);
+    }
+    let frame = Frame::new(light, origin).ok_or(Fallback::NoShaft)?;
+    SCRATCH.with(|cell| {
+        let s = &mut *cell.borrow_mut();
+        gather(plugin, scene, point, &frame, s)?;
+        let c = &plugin.counters;
+        let arr = &mut s.arrangement;
+        arr.build(domain, &s.segments).map_err(|f| match f {
+            Failure::Degenerate => Fallback::Degenerate,
+            Failure::Inconsistent => Fallback::Inconsistent,
+        })?;
+        let (_, crossings, pieces) = arr.sizes();
+        c.crossings.fetch_add(crossings as u64, Ordering::Relaxed);
+        c.pieces.fetch_add(pieces as u64, Ordering::Relaxed);
+        // The constant: D at a point of the lowest face, by one ray through the counted
+        // triangles (the flagged ones left out, as `silhouette` aims it) plus the outlines
+        // holding the point.
+        c.rays.fetch_add(1, Ordering::Relaxed);
+        let t = arr.target;
+        let target = light.point(t.x as f32, t.y as f32);
+        let ends = (light.point_error(t.x as f32, t.y as f32), light.normal);
+        let flags = &plugin.counting.occluders().edges.flags;
+        let blocked = scene.segment_occluded_from_except(origin, target, ends, |slot| flags[slot] != 0);
+        let covered = s.outlines.iter().any(|&(lo, hi)| holds(&s.corners[lo as usize..hi as usize], t));
+        if blocked || covered {
+            c.umbra.fetch_add(1, Ordering::Relaxed);
+            c.exact.fetch_add(1, Ordering::Relaxed);
+            return Ok(0.0);
+        }
+        let mut lit = 0.0;
+        arr.boundary_of(arr.min_rel, |a, b| lit += plane.edge_term(a, b));
+        let whole = plane.polygon_sum(domain);
+        let v = lit / whole;
+        if !(-1e-9..=1.0 + 1e-9).contains(&v) {
+            return Err(Fallback::Certificate);
+        }
+        c.exact.fetch_add(1, Ordering::Relaxed);
+        Ok(v.clamp(0.0, 1.0) as f32)
+    })
+}
+
+/// The point's segments into `s.segments`: its active edges (jump = -weight: an edge's
+/// weight is D's rise to the right of its projection, p0 -> p1, as seen on the light) and the
+/// near-light triangles' outlines, exact duplicates merged with their jumps summed.
+fn gather(
+    plugin: &Analytic,
+    scene: &Scene,
+    point: &renderer::geometry::point::ShadingPoint,
+    frame: &Frame,
+    s: &mut Scratch,
+) -> Result<(), Fallback> {
+    let light = plugin.light();
+    let occluders = plugin.counting.occluders();
+    // The whole hull: every edge projected anywhere over the light counts.
+    let shaft = Shaft::new(light, point).ok_or(Fallback::NoShaft)?.without_cut();
+    s.edges.gather(occluders, light, scene, &shaft, frame.o, usize::MAX).map_err(|why| match why {
+        GatherRefusal::TooManyCandidates | GatherRefusal::NoShaft | GatherRefusal::KeptInstance => {
+            Fallback::NoShaft
+        }
+    })?;
+    s.edges.activate(occluders, frame);
+    let c = &plugin.counters;
+    c.edges_active.fetch_add(s.edges.active.len() as u64, Ordering::Relaxed);
+    renderer::util::pixel_cost::count_lookups(s.edges.active.len() as u64);
+    s.segments.clear();
+    s.segments.extend(s.edges.active.iter().map(|e| Segment { p0: e.p0, p1: e.p1, jump: -e.weight }));
+    s.outlines.clear();
+    s.corners.clear();
+    let set = &occluders.edges;
+    for &slot in &s.edges.excluded {
+        let flags = set.flags[slot as usize];
+        if flags & ALPHA != 0 {
+            return Err(Fallback::Alpha);
+        }
+        if flags & NEAR_LIGHT == 0 {
+            continue; // zero-area: it blocks nothing
+        }
+        let Some(outline) = frame.clip_triangle(set.triangle(slot)) else { continue };
+        let (pts, n) = (&outline.corners[..outline.count], outline.count);
+        let area: f64 = (0..n).map(|k| pts[k].perp_dot(pts[(k + 1) % n])).sum();
+        if area == 0.0 {
+            continue;
+        }
+        // The triangle adds 1 to D inside its outline: on the left of a counter-clockwise one.
+        let jump = if area > 0.0 { 1 } else { -1 };
+        let lo = s.corners.len() as u32;
+        for k in 0..n {
+            s.segments.push(Segment { p0: pts[k], p1: pts[(k + 1) % n], jump });
+        }
+        s.corners.extend_from_slice(pts);
+        s.outlines.push((lo, s.corners.len() as u32));
+        c.outlines.fetch_add(1, Ordering::Relaxed);
+    }
+    let merged = merge_duplicates(&mut s.segments);
+    c.merged.fetch_add(merged as u64, Ordering::Relaxed);
+    Ok(())
+}
+
+/// Merges segments with the same two ends (either way round: a shared edge of two
+/// outlines, a duplicated triangle), summing their jumps; drops those that cancel. Returns
+/// how many were merged away.
+fn merge_duplicates(segments: &mut Vec<Segment>) -> usize {
+    let before = segments.len();
+    let key = |s: &Segment| {
+        let (a, b) = ((s.p0.x.to_bits(), s.p0.y.to_bits()), (s.p1.x.to_bits(), s.p1.y.to_bits()));
+        if a <= b { (a, b) } else { (b, a) }
+    };
+    // Canonical direction: p0 the smaller end, the jump's sign following.
+    for s in segments.iter_mut() {
+        let (a, b) = ((s.p0.x.to_bits(), s.p0.y.to_bits()), (s.p1.x.to_bits(), s.p1.y.to_bits()));
+        if a > b {
+            *s = Segment { p0: s.p1, p1: s.p0, jump: -s.jump };
+        }
+    }
+    segments.sort_unstable_by_key(key);
+    segments.dedup_by(|later, kept| {
+        if key(later) == key(kept) {
+            kept.jump += later.jump;
+            true
+        } else {
+            false
+        }
+    });
+    segments.retain(|s| s.jump != 0);
+    before - segments.len()
+}
+
+/// Whether the convex polygon `corners` (either orientation) holds `p` strictly inside.
+fn holds(corners: &[DVec2], p: DVec2) -> bool {
+    let n = corners.len();
+    let side = |k: usize| (corners[(k + 1) % n] - corners[k]).perp_dot(p - corners[k]);
+    let first = side(0);
+    first != 0.0 && (1..n).all(|k| side(k) * first > 0.0)
+}
