@@ -54,36 +54,13 @@ impl LightPlane {
     /// `out`, their count returned (under 3: nothing of the light is above).
     pub fn domain(&self, out: &mut [DVec2; MAX_DOMAIN]) -> usize {
         let square = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
-        let h = |q: DVec2| self.n.dot(self.at(q));
-        let mut m = 0;
-        let mut push = |q: DVec2, out: &mut [DVec2; MAX_DOMAIN]| {
-            if m == 0 || out[m - 1] != q {
-                out[m] = q;
-                m += 1;
-            }
-        };
-        for k in 0..4 {
-            let (a, b) = (square[k], square[(k + 1) % 4]);
-            let (ha, hb) = (h(a), h(b));
-            if ha >= 0.0 {
-                push(a, out);
-            }
-            if (ha >= 0.0) != (hb >= 0.0) {
-                let t = ha / (ha - hb);
-                let q = if t <= 0.0 {
-                    a
-                } else if t >= 1.0 {
-                    b
-                } else {
-                    a + t * (b - a)
-                };
-                push(q, out);
-            }
-        }
-        if m > 1 && out[m - 1] == out[0] {
-            m -= 1;
-        }
-        m
+        clip_polygon(&square, |q| self.height(self.n, q), out)
+    }
+
+    /// `normal . (y - p)` at light point `q`, in the point's unit.
+    #[inline]
+    pub fn height(&self, normal: DVec3, q: DVec2) -> f64 {
+        normal.dot(self.at(q))
     }
 
     /// The sum of the terms round a polygon (light coordinates, in order).
@@ -91,6 +68,41 @@ impl LightPlane {
         let n = corners.len();
         (0..n).map(|k| self.edge_term(corners[k], corners[(k + 1) % n])).sum()
     }
+}
+
+/// The convex polygon `corners` clipped to g >= 0 (g affine), into `out` without repeated
+/// corners; the count returned.
+pub fn clip_polygon(corners: &[DVec2], g: impl Fn(DVec2) -> f64, out: &mut [DVec2; MAX_DOMAIN]) -> usize {
+    let mut m = 0;
+    let mut push = |q: DVec2, out: &mut [DVec2; MAX_DOMAIN]| {
+        if (m == 0 || out[m - 1] != q) && m < MAX_DOMAIN {
+            out[m] = q;
+            m += 1;
+        }
+    };
+    let n = corners.len();
+    for k in 0..n {
+        let (a, b) = (corners[k], corners[(k + 1) % n]);
+        let (ga, gb) = (g(a), g(b));
+        if ga >= 0.0 {
+            push(a, out);
+        }
+        if (ga >= 0.0) != (gb >= 0.0) {
+            let t = ga / (ga - gb);
+            let q = if t <= 0.0 {
+                a
+            } else if t >= 1.0 {
+                b
+            } else {
+                a + t * (b - a)
+            };
+            push(q, out);
+        }
+    }
+    if m > 1 && out[m - 1] == out[0] {
+        m -= 1;
+    }
+    m
 }
 
 #[cfg(test)]

@@ -10,9 +10,10 @@
 //! ([`lambert`]) round the region of lowest D over the same sum round the whole part: V, the
 //! share of irradiance, to rounding. No samples, no noise.
 //!
-//! Points the arrangement does not answer exactly (alpha-tested triangles with holes over
-//! the light, the light seen past a smoothed normal under the geometric tangent plane,
-//! degenerate contacts, a certificate failed) are answered by `silhouette`'s counting at
+//! The part of the light under the geometric tangent plane (seen past a smoothed normal) is
+//! integrated on its own, from the origin under the surface, as `traced` aims those samples.
+//! Points the arrangement does not answer exactly (alpha-tested triangles with holes in the
+//! shaft, degenerate contacts, a certificate failed) are answered by `silhouette`'s counting at
 //! `[shadows].samples`, and counted in the run report by reason.
 //!
 //! Scene file: `method = "analytic"`; `[shadows.analytic]` takes no keys.
@@ -70,8 +71,6 @@ impl MethodParams for AnalyticParams {
 enum Fallback {
     /// An alpha-tested triangle with holes in the point's shaft.
     Alpha,
-    /// Part of the light above the shading horizon lies under the geometric tangent plane.
-    BelowGeometric,
     /// The shaft's candidates could not be gathered (too deep a tree), or no frame.
     NoShaft,
     /// Collinear overlapping projections, a T-junction, a lone end.
@@ -102,7 +101,7 @@ struct Counters {
     crossings: AtomicU64,
     pieces: AtomicU64,
     merged: AtomicU64,
-    fallback: [AtomicU64; 6],
+    fallback: [AtomicU64; 5],
 }
 
 impl Analytic {
@@ -160,14 +159,16 @@ impl LightShadowing for Analytic {
             ("pieces", load(&c.pieces)),
             ("segments_merged", load(&c.merged)),
             ("points_counted_alpha", f(Fallback::Alpha)),
-            ("points_counted_below_geometric", f(Fallback::BelowGeometric)),
             ("points_counted_no_shaft", f(Fallback::NoShaft)),
             ("points_counted_degenerate", f(Fallback::Degenerate)),
             ("points_counted_inconsistent", f(Fallback::Inconsistent)),
             ("points_counted_certificate", f(Fallback::Certificate)),
         ];
-        // The counted points' own work, under the counting method's names.
-        out.extend(self.counting.counters().into_iter().map(|(name, v)| (counted_name(name), v)));
+        // The shared edge set's statistics, and the counted points' own work under names of
+        // their own (the counting's finer counters stay with `silhouette`).
+        out.extend(
+            self.counting.counters().into_iter().filter_map(|(name, v)| Some((counted_name(name)?, v))),
+        );
         out
     }
 
@@ -176,15 +177,26 @@ impl LightShadowing for Analytic {
     }
 }
 
-/// The counting method's counter names, prefixed so the run report keeps them apart.
-fn counted_name(name: &'static str) -> &'static str {
-    match name {
+/// The counting method's counters `analytic` reports, and under which names: the edge set's
+/// and the shafts' as they are, the counted points' work prefixed.
+fn counted_name(name: &'static str) -> Option<&'static str> {
+    Some(match name {
         "silhouette_points" => "counted_points",
         "shadow_rays" => "counted_shadow_rays",
         "samples_uncertain" => "counted_samples_uncertain",
-        "edges_tested" => "counted_edges_tested",
-        "edges_active" => "counted_edges_active",
-        "points_umbra" => "counted_points_umbra",
-        other => other,
-    }
+        "edges"
+        | "edges_potential"
+        | "edges_boundary"
+        | "edges_non_manifold"
+        | "triangles_alpha"
+        | "triangles_alpha_opaque"
+        | "triangles_alpha_clear"
+        | "triangles_near_light"
+        | "triangles_zero_area"
+        | "instances_counted"
+        | "instance_mesh_edges"
+        | "shafts"
+        | "shafts_clear" => name,
+        _ => return None,
+    })
 }

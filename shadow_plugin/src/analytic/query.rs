@@ -1,12 +1,13 @@
 //! One point's V, integrated (see the module doc of `analytic`).
 
 use super::arrangement::{Arrangement, Failure, MAX_DOMAIN, Segment};
-use super::lambert::LightPlane;
+use super::lambert::{LightPlane, clip_polygon};
 use super::{Analytic, Fallback};
 use crate::silhouette_edges::edges::{ALPHA, NEAR_LIGHT};
 use crate::silhouette_edges::projection::Frame;
 use crate::silhouette_edges::{EdgeScratch, GatherRefusal};
-use glam::DVec2;
+use glam::{DVec2, Vec3};
+use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;
 use renderer::geometry::shaft::{self, Shaft};
 use renderer::{Scene, ShadowQuery};
@@ -42,24 +43,72 @@ pub(super) fn visibility(plugin: &Analytic, scene: &Scene, q: &ShadowQuery) -> R
     let mut domain = [DVec2::ZERO; MAX_DOMAIN];
     let m = plane.domain(&mut domain);
     if m < 3 {
-        return Err(Fallback::BelowGeometric);
+        return Err(Fallback::NoShaft);
     }
     let domain = &domain[..m];
-    // Every ray must start from the one origin over the geometric plane: the domain's
-    // corners above it (the domain is convex).
-    let (o, ng) = (origin.as_dvec3(), point.n_geom.as_dvec3());
-    let (c, u, v) = (light.center.as_dvec3(), light.u.as_dvec3(), light.v.as_dvec3());
-    let world = |q: DVec2| c + (q.x - 0.5) * u + (q.y - 0.5) * v;
-    if domain.iter().any(|&q| ng.dot(world(q) - o) <= 0.0) {
-        return Err(Fallback::BelowGeometric);
+    let whole = plane.polygon_sum(domain);
+    // The part over the geometric tangent plane is seen from the origin above it; the part
+    // under it (the light seen past a smoothed normal) from the origin below, as `traced`
+    // aims those samples: each side integrated on its own.
+    let ng = point.n_geom.as_dvec3();
+    let mut lit = 0.0;
+    for side in Side::both(point, origin) {
+        let mut part = [DVec2::ZERO; MAX_DOMAIN];
+        let sign = if side.below { -1.0 } else { 1.0 };
+        let m = clip_polygon(domain, |q| sign * plane.height(ng, q), &mut part);
+        // A part too thin to hold a sample of f64 adds nothing measurable.
+        if m < 3 || (plane.polygon_sum(&part[..m]) / whole).abs() < 1e-13 {
+            continue;
+        }
+        lit += side_lit(plugin, scene, &plane, &side, &part[..m])?;
     }
-    let frame = Frame::new(light, origin).ok_or(Fallback::NoShaft)?;
+    let v = lit / whole;
+    if !(-1e-9..=1.0 + 1e-9).contains(&v) {
+        return Err(Fallback::Certificate);
+    }
+    plugin.counters.exact.fetch_add(1, Ordering::Relaxed);
+    if v == 0.0 {
+        plugin.counters.umbra.fetch_add(1, Ordering::Relaxed);
+    }
+    Ok(v.clamp(0.0, 1.0) as f32)
+}
+
+/// One side of the geometric tangent plane: the point as seen from it (`n_geom` toward its
+/// origin) and the origin its rays leave from.
+struct Side {
+    point: ShadingPoint,
+    origin: Vec3,
+    below: bool,
+}
+
+impl Side {
+    fn both(point: &ShadingPoint, origin: Vec3) -> [Side; 2] {
+        let mut flipped = *point;
+        flipped.n_geom = -flipped.n_geom;
+        flipped.n_shading = -flipped.n_shading;
+        let below = offset_origin(&flipped, flipped.n_geom);
+        [Side { point: *point, origin, below: false }, Side { point: flipped, origin: below, below: true }]
+    }
+}
+
+/// Lambert's sum over the part of `part` (a convex polygon of light coordinates, on one side
+/// of the geometric plane) that the side's origin sees: the region of lowest depth, or
+/// nothing where one ray says that depth is not 0.
+fn side_lit(
+    plugin: &Analytic,
+    scene: &Scene,
+    plane: &LightPlane,
+    side: &Side,
+    part: &[DVec2],
+) -> Result<f64, Fallback> {
+    let light = plugin.light();
+    let frame = Frame::new(light, side.origin).ok_or(Fallback::NoShaft)?;
     SCRATCH.with(|cell| {
         let s = &mut *cell.borrow_mut();
-        gather(plugin, scene, point, &frame, s)?;
+        gather(plugin, scene, &side.point, &frame, s)?;
         let c = &plugin.counters;
         let arr = &mut s.arrangement;
-        arr.build(domain, &s.segments).map_err(|f| match f {
+        arr.build(part, &s.segments).map_err(|f| match f {
             Failure::Degenerate => Fallback::Degenerate,
             Failure::Inconsistent => Fallback::Inconsistent,
         })?;
@@ -74,22 +123,14 @@ pub(super) fn visibility(plugin: &Analytic, scene: &Scene, q: &ShadowQuery) -> R
         let target = light.point(t.x as f32, t.y as f32);
         let ends = (light.point_error(t.x as f32, t.y as f32), light.normal);
         let flags = &plugin.counting.occluders().edges.flags;
-        let blocked = scene.segment_occluded_from_except(origin, target, ends, |slot| flags[slot] != 0);
+        let blocked = scene.segment_occluded_from_except(side.origin, target, ends, |slot| flags[slot] != 0);
         let covered = s.outlines.iter().any(|&(lo, hi)| holds(&s.corners[lo as usize..hi as usize], t));
         if blocked || covered {
-            c.umbra.fetch_add(1, Ordering::Relaxed);
-            c.exact.fetch_add(1, Ordering::Relaxed);
             return Ok(0.0);
         }
         let mut lit = 0.0;
         arr.boundary_of(arr.min_rel, |a, b| lit += plane.edge_term(a, b));
-        let whole = plane.polygon_sum(domain);
-        let v = lit / whole;
-        if !(-1e-9..=1.0 + 1e-9).contains(&v) {
-            return Err(Fallback::Certificate);
-        }
-        c.exact.fetch_add(1, Ordering::Relaxed);
-        Ok(v.clamp(0.0, 1.0) as f32)
+        Ok(lit)
     })
 }
 
@@ -99,7 +140,7 @@ pub(super) fn visibility(plugin: &Analytic, scene: &Scene, q: &ShadowQuery) -> R
 fn gather(
     plugin: &Analytic,
     scene: &Scene,
-    point: &renderer::geometry::point::ShadingPoint,
+    point: &ShadingPoint,
     frame: &Frame,
     s: &mut Scratch,
 ) -> Result<(), Fallback> {
