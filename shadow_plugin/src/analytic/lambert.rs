@@ -21,6 +21,10 @@ pub struct LightPlane {
     v: DVec3,
     /// The shading normal.
     n: DVec3,
+    /// The light's normal (emitting side), and twice the light's area in the point's unit
+    /// squared: an area element da db of light coordinates weighs that times g.
+    n_light: DVec3,
+    area2: f64,
 }
 
 impl LightPlane {
@@ -31,13 +35,27 @@ impl LightPlane {
             d if d > 0.0 && d.is_finite() => d,
             _ => 1.0,
         };
-        LightPlane { corner: corner / unit, u: u / unit, v: v / unit, n }
+        let (u, v) = (u / unit, v / unit);
+        let n_light = light.normal.as_dvec3();
+        LightPlane { corner: corner / unit, u, v, n, n_light, area2: 2.0 * u.cross(v).length() }
     }
 
     /// The vector from the point to light point `q` (light coordinates).
     #[inline]
     pub fn at(&self, q: DVec2) -> DVec3 {
         self.corner + q.x * self.u + q.y * self.v
+    }
+
+    /// The weight of light point `q` in the units of [`LightPlane::edge_term`]'s sums:
+    /// 2 g |u x v|, g = cos(theta_x) cos(theta_y) / r^2 (0 under the horizon), so that
+    /// integrated over da db it gives a region's sum.
+    #[inline]
+    pub fn weight(&self, q: DVec2) -> f64 {
+        let w = self.at(q);
+        let r2 = w.length_squared();
+        let cos_x = self.n.dot(w).max(0.0);
+        let cos_y = (-self.n_light.dot(w)).max(0.0);
+        self.area2 * cos_x * cos_y / (r2 * r2)
     }
 
     /// Lambert's term of the straight piece a -> b: angle(A, B) n . unit(A x B).
@@ -137,6 +155,32 @@ mod tests {
                 "{p} {n}: {sum} {expected}"
             );
         }
+    }
+
+    /// The weights integrated over the light (a fine midpoint grid) give the domain's sum.
+    #[test]
+    fn weights_integrate_to_the_domain_sum() {
+        let light = RectLight::new(
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.6),
+            Vec3::ONE,
+        );
+        let (p, n) = (Vec3::new(0.3, 1.0, -0.2), Vec3::new(0.8, 0.6, 0.0));
+        let plane = LightPlane::new(&light, p.as_dvec3(), n.as_dvec3());
+        let mut corners = [DVec2::ZERO; MAX_DOMAIN];
+        let m = plane.domain(&mut corners);
+        let sum = plane.polygon_sum(&corners[..m]).abs();
+        let g = 2000;
+        let step = 1.0 / g as f64;
+        let mut total = 0.0;
+        for i in 0..g {
+            for j in 0..g {
+                total +=
+                    plane.weight(DVec2::new((i as f64 + 0.5) * step, (j as f64 + 0.5) * step)) * step * step;
+            }
+        }
+        assert!((total - sum).abs() < 1e-4 * sum, "{total} against {sum}");
     }
 
     /// A sub-rectangle's sum equals the irradiance factor of a light that is that

@@ -12,12 +12,15 @@
 //!
 //! The part of the light under the geometric tangent plane (seen past a smoothed normal) is
 //! integrated on its own, from the origin under the surface, as `traced` aims those samples.
-//! Points the arrangement does not answer exactly (alpha-tested triangles with holes in the
-//! shaft, degenerate contacts, a certificate failed) are answered by `silhouette`'s counting at
-//! `[shadows].samples`, and counted in the run report by reason.
+//! Alpha-tested triangles with holes (leaves) follow no closed form: what they take from the
+//! exactly integrated visible region is estimated by `[shadows].samples` strata over their
+//! projections alone ([`alpha`]). Points the arrangement does not answer exactly (degenerate
+//! contacts, an unclosed loop, a certificate failed, no shaft) are answered by `silhouette`'s
+//! counting at `[shadows].samples`, and counted in the run report by reason.
 //!
 //! Scene file: `method = "analytic"`; `[shadows.analytic]` takes no keys.
 
+mod alpha;
 pub mod arrangement;
 mod entry;
 pub mod lambert;
@@ -69,8 +72,6 @@ impl MethodParams for AnalyticParams {
 /// Why a point was answered by counting rather than integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Fallback {
-    /// An alpha-tested triangle with holes in the point's shaft.
-    Alpha,
     /// The shaft's candidates could not be gathered (too deep a tree), or no frame.
     NoShaft,
     /// Collinear overlapping projections, a T-junction, a lone end.
@@ -86,6 +87,8 @@ enum Fallback {
 #[derive(Debug)]
 pub struct Analytic {
     light: Option<RectLight>,
+    /// `[shadows].samples`: the strata over alpha-tested leaves, and the counted points'.
+    samples: u32,
     counting: Silhouette,
     counters: Counters,
 }
@@ -101,12 +104,14 @@ struct Counters {
     crossings: AtomicU64,
     pieces: AtomicU64,
     merged: AtomicU64,
-    fallback: [AtomicU64; 5],
+    fallback: [AtomicU64; 4],
+    alpha_points: AtomicU64,
+    alpha_rays: AtomicU64,
 }
 
 impl Analytic {
     pub fn new(samples: u32) -> Self {
-        Self { light: None, counting: Silhouette::new(samples), counters: Counters::default() }
+        Self { light: None, samples, counting: Silhouette::new(samples), counters: Counters::default() }
     }
 
     fn light(&self) -> &RectLight {
@@ -158,7 +163,8 @@ impl LightShadowing for Analytic {
             ("crossings", load(&c.crossings)),
             ("pieces", load(&c.pieces)),
             ("segments_merged", load(&c.merged)),
-            ("points_counted_alpha", f(Fallback::Alpha)),
+            ("point_sides_alpha_sampled", load(&c.alpha_points)),
+            ("alpha_sample_rays", load(&c.alpha_rays)),
             ("points_counted_no_shaft", f(Fallback::NoShaft)),
             ("points_counted_degenerate", f(Fallback::Degenerate)),
             ("points_counted_inconsistent", f(Fallback::Inconsistent)),

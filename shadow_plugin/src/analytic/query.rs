@@ -1,5 +1,6 @@
 //! One point's V, integrated (see the module doc of `analytic`).
 
+use super::alpha::{Leaves, hidden_by_leaves};
 use super::arrangement::{Arrangement, Failure, MAX_DOMAIN, Segment};
 use super::lambert::{LightPlane, clip_polygon};
 use super::{Analytic, Fallback};
@@ -51,7 +52,8 @@ pub(super) fn visibility(plugin: &Analytic, scene: &Scene, q: &ShadowQuery) -> R
     // under it (the light seen past a smoothed normal) from the origin below, as `traced`
     // aims those samples: each side integrated on its own.
     let ng = point.n_geom.as_dvec3();
-    let mut lit = 0.0;
+    // The exactly integrated part, and what alpha-tested leaves take from it (estimated).
+    let (mut lit, mut leaves) = (0.0, 0.0);
     for side in Side::both(point, origin) {
         let mut part = [DVec2::ZERO; MAX_DOMAIN];
         let sign = if side.below { -1.0 } else { 1.0 };
@@ -60,12 +62,18 @@ pub(super) fn visibility(plugin: &Analytic, scene: &Scene, q: &ShadowQuery) -> R
         if m < 3 || (plane.polygon_sum(&part[..m]) / whole).abs() < 1e-13 {
             continue;
         }
-        lit += side_lit(plugin, scene, &plane, &side, &part[..m])?;
+        let (exact, hidden) =
+            side_lit((plugin, scene, q.seed ^ side.below as u64), &plane, &side, &part[..m])?;
+        lit += exact;
+        leaves += hidden;
     }
+    // The certificate: the exact part within [0, 1] beyond rounding.
     let v = lit / whole;
     if !(-1e-9..=1.0 + 1e-9).contains(&v) {
         return Err(Fallback::Certificate);
     }
+    // The leaves' estimate may take a little more than is there: clamped, as a sampled V is.
+    let v = v - leaves.copysign(whole) / whole;
     plugin.counters.exact.fetch_add(1, Ordering::Relaxed);
     if v == 0.0 {
         plugin.counters.umbra.fetch_add(1, Ordering::Relaxed);
@@ -92,15 +100,15 @@ impl Side {
 }
 
 /// Lambert's sum over the part of `part` (a convex polygon of light coordinates, on one side
-/// of the geometric plane) that the side's origin sees: the region of lowest depth, or
-/// nothing where one ray says that depth is not 0.
+/// of the geometric plane) that the side's origin sees through the counted geometry (the
+/// region of lowest depth, or nothing where one ray says that depth is not 0), and the
+/// estimated sum alpha-tested leaves take from it (positive).
 fn side_lit(
-    plugin: &Analytic,
-    scene: &Scene,
+    (plugin, scene, seed): (&Analytic, &Scene, u64),
     plane: &LightPlane,
     side: &Side,
     part: &[DVec2],
-) -> Result<f64, Fallback> {
+) -> Result<(f64, f64), Fallback> {
     let light = plugin.light();
     let frame = Frame::new(light, side.origin).ok_or(Fallback::NoShaft)?;
     SCRATCH.with(|cell| {
@@ -126,11 +134,25 @@ fn side_lit(
         let blocked = scene.segment_occluded_from_except(side.origin, target, ends, |slot| flags[slot] != 0);
         let covered = s.outlines.iter().any(|&(lo, hi)| holds(&s.corners[lo as usize..hi as usize], t));
         if blocked || covered {
-            return Ok(0.0);
+            return Ok((0.0, 0.0));
         }
         let mut lit = 0.0;
         arr.boundary_of(arr.min_rel, |a, b| lit += plane.edge_term(a, b));
-        Ok(lit)
+        if s.edges.regions.iter().any(|r| flags[r.slot as usize] & ALPHA != 0) {
+            let leaves = Leaves {
+                light,
+                origin: side.origin,
+                flags,
+                regions: &s.edges.regions,
+                outlines: &s.outlines,
+                corners: &s.corners,
+            };
+            let (hidden, rays) = hidden_by_leaves(scene, plane, &leaves, part, (plugin.samples, seed));
+            c.alpha_points.fetch_add(1, Ordering::Relaxed);
+            c.alpha_rays.fetch_add(rays, Ordering::Relaxed);
+            return Ok((lit, hidden));
+        }
+        Ok((lit, 0.0))
     })
 }
 
@@ -164,11 +186,10 @@ fn gather(
     let set = &occluders.edges;
     for &slot in &s.edges.excluded {
         let flags = set.flags[slot as usize];
-        if flags & ALPHA != 0 {
-            return Err(Fallback::Alpha);
-        }
-        if flags & NEAR_LIGHT == 0 {
-            continue; // zero-area: it blocks nothing
+        // Alpha-tested ones are sampled over the visible region ([`super::alpha`]); zero-area
+        // ones block nothing.
+        if flags & ALPHA != 0 || flags & NEAR_LIGHT == 0 {
+            continue;
         }
         let Some(outline) = frame.clip_triangle(set.triangle(slot)) else { continue };
         let (pts, n) = (&outline.corners[..outline.count], outline.count);
