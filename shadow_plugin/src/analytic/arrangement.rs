@@ -18,11 +18,15 @@
 //! is an exact orient2d (Shewchuk's adaptive predicate); the crossing points are rounded
 //! and used only to integrate, where their rounding costs O(ε) in V.
 //!
-//! Degenerate input (collinear overlapping segments, an end exactly on another segment, a
-//! lone end inside Ω) is refused ([`Failure::Degenerate`]); a propagation that reaches a
+//! Segments overlapping along one line (a duplicated triangle, coplanar architecture seen
+//! edge-on) are merged into one run of pieces, their jumps summed ([`super::contacts`]).
+//! A segment with another's end exactly inside it is split there; one along a side of Ω is
+//! dropped (it separates nothing inside). Other degenerate input (a lone end inside Ω) is
+//! refused ([`Failure::Degenerate`]); a propagation that reaches a
 //! value twice differently, or a loop of jumps that does not close, is refused as
 //! [`Failure::Inconsistent`]: the caller answers such a point another way and counts it.
 
+use super::contacts::{Contact, Merge, contact};
 use glam::DVec2;
 
 /// One projected edge: depth jumps by `jump` = D(left) - D(right) across it.
@@ -56,22 +60,22 @@ pub fn orient(a: DVec2, b: DVec2, c: DVec2) -> i8 {
 /// A clipped segment with where its ends lie on the domain's boundary (`s` = side index +
 /// position along it, or NaN for an end inside).
 #[derive(Debug, Clone, Copy)]
-struct Clipped {
-    seg: Segment,
-    s: [f64; 2],
+pub(super) struct Clipped {
+    pub(super) seg: Segment,
+    pub(super) s: [f64; 2],
 }
 
 /// One crossing of segments `i` and `j`, at `point`; `ti`, `tj` its parameters along them.
 #[derive(Debug, Clone, Copy)]
-struct Crossing {
-    i: u32,
-    j: u32,
-    ti: f64,
-    tj: f64,
-    point: DVec2,
+pub(super) struct Crossing {
+    pub(super) i: u32,
+    pub(super) j: u32,
+    pub(super) ti: f64,
+    pub(super) tj: f64,
+    pub(super) point: DVec2,
     /// i's start lies on j's right, j's start on i's right.
-    i0_right_of_j: bool,
-    j0_right_of_i: bool,
+    pub(super) i0_right_of_j: bool,
+    pub(super) j0_right_of_i: bool,
 }
 
 /// A segment end on the boundary: its position, segment, and which end.
@@ -110,6 +114,10 @@ pub struct Arrangement {
     whole_boundary_rel: i32,
     queue: Vec<u32>,
     order: Vec<(f64, u32)>,
+    /// Pairs of segments found on one line, overlapping, and the merge's buffers.
+    collinear: Vec<(u32, u32)>,
+    splits: Vec<(u32, DVec2)>,
+    merge: Merge,
     sectors: Vec<(u32, u8)>,
     /// The lowest relative depth and a point inside a face that has it.
     pub min_rel: i32,
@@ -124,7 +132,23 @@ impl Arrangement {
         self.domain.clear();
         self.domain.extend_from_slice(domain);
         self.clip_all(segments)?;
-        self.find_crossings()?;
+        self.find_crossings(true)?;
+        if !(self.collinear.is_empty() && self.splits.is_empty()) {
+            // Overlaps along one line become one run of pieces with their jumps summed, and
+            // a segment with an end of another exactly inside it is split there; then the
+            // crossings are found afresh (none of either is left).
+            if !self.collinear.is_empty() {
+                self.merge.merge(&mut self.segs, &self.collinear);
+                self.find_crossings(true)?;
+            }
+            if !self.collinear.is_empty() {
+                return Err(Failure::Degenerate);
+            }
+            if !self.splits.is_empty() {
+                self.merge.split(&mut self.segs, &mut self.splits);
+                self.find_crossings(false)?;
+            }
+        }
         self.sort_crossings();
         self.group_vertices()?;
         self.walk_boundary()?;
@@ -147,11 +171,9 @@ impl Arrangement {
                 // Inside: orient(a, b, x) >= 0 (the domain is counter-clockwise).
                 let (o0, o1) = (orient(a, b, seg.p0), orient(a, b, seg.p1));
                 if o0 <= 0 && o1 <= 0 {
-                    // Both ends on or beyond this side's line: nothing inside (or it runs
-                    // along the side, which is degenerate unless it is outside).
-                    if o0 == 0 && o1 == 0 && seg.p0 != seg.p1 {
-                        return Err(Failure::Degenerate);
-                    }
+                    // Both ends on or beyond this side's line: nothing inside. One along the
+                    // side changes D only between inside and out: the boundary walk has the
+                    // depth inside from the ends of the segments that meet the side.
                     outside = true;
                     break;
                 }
@@ -203,10 +225,12 @@ impl Arrangement {
         if s >= n as f64 { 0.0 } else { s }
     }
 
-    /// Every crossing of two segments, by a sweep over their x-ranges; degenerate contacts
-    /// are refused.
-    fn find_crossings(&mut self) -> Result<(), Failure> {
+    /// Every crossing of two segments, by a sweep over their x-ranges; collinear overlaps
+    /// and ends exactly inside others are listed (where `allow_contacts`, else refused).
+    fn find_crossings(&mut self, allow_contacts: bool) -> Result<(), Failure> {
         self.crossings.clear();
+        self.collinear.clear();
+        self.splits.clear();
         self.order.clear();
         self.order.extend(self.segs.iter().enumerate().map(|(i, c)| (c.seg.p0.x.min(c.seg.p1.x), i as u32)));
         self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
@@ -223,8 +247,14 @@ impl Arrangement {
                 if b.p0.y.max(b.p1.y) < ay0 || b.p0.y.min(b.p1.y) > ay1 {
                     continue;
                 }
-                if let Some(c) = crossing(i as u32, &a, j, &b)? {
-                    self.crossings.push(c);
+                match contact(i as u32, &a, j, &b)? {
+                    Contact::Apart => {}
+                    Contact::Crossing(c) => self.crossings.push(c),
+                    Contact::Overlap if allow_contacts => self.collinear.push((i as u32, j)),
+                    Contact::Touch(splits) if allow_contacts => {
+                        self.splits.extend(splits.into_iter().flatten())
+                    }
+                    Contact::Overlap | Contact::Touch(_) => return Err(Failure::Degenerate),
                 }
             }
         }
@@ -522,24 +552,38 @@ impl Arrangement {
         Ok(())
     }
 
-    /// A base for segment `s` counted along one path from the middle of the longest
-    /// boundary piece to the middle of one of its pieces: the depths of the segments the
-    /// path crosses, summed. A path that touches an end or runs along a segment is tried
-    /// at the segment's other pieces; none clean is degenerate.
+    /// A base for segment `s` counted along one path from a boundary piece (D inside it
+    /// known) to a point of one of its pieces: the jumps of the segments the path crosses,
+    /// summed. Paths that pass exactly through an end are tried again from other points
+    /// (the longest boundary pieces, at a few fractions along each); none clean is
+    /// degenerate.
     fn count_anchor(&self, s: usize) -> Result<i32, Failure> {
-        let (from, rel) = self.longest_boundary_point();
+        const FRACTIONS: [f64; 3] = [0.5, 0.381_966_011_250_105_1, 0.723_606_797_749_979];
+        let mut longest = [(0.0f64, DVec2::ZERO, DVec2::ZERO, 0i32); 4];
+        self.for_boundary_pieces(|a, b, rel, _| {
+            let len = (b - a).length();
+            if let Some(k) = longest.iter().position(|x| len > x.0) {
+                longest[k..].rotate_right(1);
+                longest[k] = (len, a, b, rel);
+            }
+        });
         let seg = self.segs[s].seg;
-        for k in 0..self.pieces(s) {
-            let (a, b) = self.piece_ends(s, k);
-            let to = 0.5 * (a + b);
-            if let Some(d) = self.count_path(from, to, s) {
+        for &(_, a, b, rel) in longest.iter().filter(|x| x.0 > 0.0) {
+            for f in FRACTIONS {
+                let from = a + f * (b - a);
                 let from_side = orient(seg.p0, seg.p1, from);
                 if from_side == 0 {
-                    return Err(Failure::Degenerate);
+                    continue;
                 }
-                // D on the side of `s` facing `from`, at its piece k.
-                let right = if from_side > 0 { rel + d - seg.jump } else { rel + d };
-                return Ok(right - self.cum[self.starts[s] as usize + s + k]);
+                for k in 0..self.pieces(s) {
+                    let (pa, pb) = self.piece_ends(s, k);
+                    for g in FRACTIONS {
+                        let Some(d) = self.count_path(from, pa + g * (pb - pa), s) else { continue };
+                        // D on the side of `s` facing `from`, at its piece k.
+                        let right = if from_side > 0 { rel + d - seg.jump } else { rel + d };
+                        return Ok(right - self.cum[self.starts[s] as usize + s + k]);
+                    }
+                }
             }
         }
         Err(Failure::Degenerate)
@@ -565,18 +609,6 @@ impl Arrangement {
             d += if o1 < 0 { c.seg.jump } else { -c.seg.jump };
         }
         Some(d)
-    }
-
-    /// The middle of the longest boundary piece, and D inside it.
-    fn longest_boundary_point(&self) -> (DVec2, i32) {
-        let mut best = (f64::NEG_INFINITY, DVec2::ZERO, 0);
-        self.for_boundary_pieces(|a, b, rel, _| {
-            let len = (b - a).length();
-            if len > best.0 {
-                best = (len, 0.5 * (a + b), rel);
-            }
-        });
-        (best.1, best.2)
     }
 
     /// Piece `k` of segment `s`: its start and end points.
@@ -686,53 +718,6 @@ impl Arrangement {
     pub fn sizes(&self) -> (usize, usize, usize) {
         (self.segs.len(), self.crossings.len(), self.segs.len() + 2 * self.crossings.len())
     }
-}
-
-/// The crossing of segments a (index i) and b (index j), `None` where they do not meet or
-/// meet only at a shared end; degenerate contacts are refused.
-fn crossing(i: u32, a: &Segment, j: u32, b: &Segment) -> Result<Option<Crossing>, Failure> {
-    let (o1, o2) = (orient(a.p0, a.p1, b.p0), orient(a.p0, a.p1, b.p1));
-    if o1 * o2 > 0 {
-        return Ok(None);
-    }
-    let (o3, o4) = (orient(b.p0, b.p1, a.p0), orient(b.p0, b.p1, a.p1));
-    if o3 * o4 > 0 {
-        return Ok(None);
-    }
-    if o1 != 0 && o2 != 0 && o3 != 0 && o4 != 0 {
-        // A proper crossing; its parameters from the side distances (f64, rounded).
-        let e = a.p1 - a.p0;
-        let f = b.p1 - b.p0;
-        let (ga0, ga1) = (f.perp_dot(a.p0 - b.p0), f.perp_dot(a.p1 - b.p0));
-        let ti = (ga0 / (ga0 - ga1)).clamp(0.0, 1.0);
-        let (gb0, gb1) = (e.perp_dot(b.p0 - a.p0), e.perp_dot(b.p1 - a.p0));
-        let tj = (gb0 / (gb0 - gb1)).clamp(0.0, 1.0);
-        return Ok(Some(Crossing {
-            i,
-            j,
-            ti,
-            tj,
-            point: a.p0 + ti * e,
-            i0_right_of_j: o3 < 0,
-            j0_right_of_i: o1 < 0,
-        }));
-    }
-    // Touching: allowed only at a shared end of two segments not on one line.
-    let shared = [a.p0, a.p1].iter().any(|p| *p == b.p0 || *p == b.p1);
-    let collinear = o1 == 0 && o2 == 0;
-    if shared && !collinear {
-        return Ok(None);
-    }
-    if collinear {
-        // Overlapping along the line (beyond a shared end point) is degenerate.
-        let d = a.p1 - a.p0;
-        let (s0, s1) = ((b.p0 - a.p0).dot(d), (b.p1 - a.p0).dot(d));
-        let (lo, hi) = (s0.min(s1), s0.max(s1));
-        if hi <= 0.0 || lo >= d.length_squared() {
-            return Ok(None);
-        }
-    }
-    Err(Failure::Degenerate)
 }
 
 fn distance_to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {

@@ -162,22 +162,58 @@ fn faces_have_the_winding_depth_and_levels_tile_the_domain() {
     assert!(checked > 10_000, "only {checked} points checked");
 }
 
+/// Checks an arrangement of `polys` over `dom` against brute force: the levels' areas sum
+/// to the domain's, and every face's depth differs from the winding sum by one constant.
+fn check(arr: &Arrangement, polys: &[Vec<DVec2>], dom: &[DVec2], next: &mut impl FnMut() -> f64) -> usize {
+    let total: f64 = (arr.min_rel..arr.min_rel + 12).map(|l| shoelace(arr, l)).sum();
+    let dom_area: f64 = (0..dom.len()).map(|k| 0.5 * dom[k].perp_dot(dom[(k + 1) % dom.len()])).sum();
+    assert!((total - dom_area).abs() < 1e-12, "levels {total} against the domain's {dom_area}");
+    let (mut offset, mut checked) = (None, 0);
+    for _ in 0..80 {
+        let p = DVec2::new(next(), next());
+        let Some(rel) = rel_at(arr, p) else { continue };
+        let d: i32 = polys.iter().map(|q| winding(q, p).abs()).sum();
+        assert_eq!(d - rel, *offset.get_or_insert(d - rel), "point {p}");
+        checked += 1;
+    }
+    checked
+}
+
+/// Rectangles on a coarse grid (exact binary fractions): their sides overlap along shared
+/// lines (merged, jumps summed: a duplicated edge cancels) and their corners fall exactly
+/// on other sides (T-junctions, split there).
 #[test]
-fn degenerate_contacts_are_refused() {
-    let dom = domain(&mut uniform(1), false);
+fn collinear_overlaps_merge_and_t_junctions_split() {
+    let mut next = uniform(0x0123_4567_89ab_cdef);
+    let dom = domain(&mut next, false);
     let mut arr = Arrangement::default();
-    // Two collinear overlapping segments (a duplicated edge), closing two triangles.
-    let (a, b, c, d) =
-        (DVec2::new(0.2, 0.2), DVec2::new(0.8, 0.2), DVec2::new(0.5, 0.7), DVec2::new(0.6, 0.2));
-    let mut segs = Vec::new();
-    edges(&[a, b, c], &mut segs);
-    edges(&[DVec2::new(0.3, 0.2), d, DVec2::new(0.45, 0.9)], &mut segs);
-    assert_eq!(arr.build(&dom, &segs), Err(Failure::Degenerate));
-    // A T-junction: a triangle's corner exactly on another's side.
-    segs.clear();
-    edges(&[a, b, c], &mut segs);
-    edges(&[DVec2::new(0.5, 0.2), DVec2::new(0.5, 0.05), DVec2::new(0.7, 0.05)], &mut segs);
-    assert_eq!(arr.build(&dom, &segs), Err(Failure::Degenerate));
+    let grid = |x: f64| (x * 8.0).floor() / 8.0;
+    let mut checked = 0;
+    for round in 0..300 {
+        let polys: Vec<Vec<DVec2>> = (0..2 + round % 5)
+            .map(|_| {
+                let (x0, y0) = (grid(1.2 * next() - 0.1), grid(1.2 * next() - 0.1));
+                let (w, h) = (0.125 * (1.0 + (next() * 4.0).floor()), 0.125 * (1.0 + (next() * 4.0).floor()));
+                let r = vec![
+                    DVec2::new(x0, y0),
+                    DVec2::new(x0 + w, y0),
+                    DVec2::new(x0 + w, y0 + h),
+                    DVec2::new(x0, y0 + h),
+                ];
+                if next() < 0.5 { r.into_iter().rev().collect() } else { r }
+            })
+            .collect();
+        let mut segs = Vec::new();
+        for p in &polys {
+            edges(p, &mut segs);
+        }
+        // A lone T-junction does not close: refused. Closed ones must be exact.
+        match arr.build(&dom, &segs) {
+            Ok(()) => checked += check(&arr, &polys, &dom, &mut next),
+            Err(f) => panic!("round {round}: {f:?} for {polys:?}"),
+        }
+    }
+    assert!(checked > 5000, "only {checked} points checked");
 }
 
 #[test]

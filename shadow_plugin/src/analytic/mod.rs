@@ -22,6 +22,7 @@
 
 mod alpha;
 pub mod arrangement;
+mod contacts;
 mod entry;
 pub mod lambert;
 mod query;
