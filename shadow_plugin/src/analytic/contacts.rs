@@ -91,7 +91,7 @@ impl Merge {
     /// Splits segments at the points `splits` names (each exactly inside its segment), so
     /// that every such end is a shared vertex; the pieces keep their segment's jump.
     pub(super) fn split(&mut self, segs: &mut Vec<Clipped>, splits: &mut [(u32, DVec2)]) {
-        splits.sort_unstable_by(|a, b| a.0.cmp(&b.0));
+        splits.sort_unstable_by_key(|a| a.0);
         self.kept.clear();
         let mut k = 0;
         for (index, c) in segs.iter().enumerate() {
