@@ -5,7 +5,7 @@ use super::arrangement::{Arrangement, Failure, MAX_DOMAIN, Segment};
 use super::lambert::{LightPlane, clip_polygon};
 use super::{Analytic, Fallback};
 use crate::silhouette_edges::edges::{ALPHA, NEAR_LIGHT};
-use crate::silhouette_edges::projection::Frame;
+use crate::silhouette_edges::projection::{Frame, clip, exact_orient_sign};
 use crate::silhouette_edges::{EdgeScratch, GatherRefusal};
 use glam::{DVec2, Vec3};
 use renderer::geometry::point::ShadingPoint;
@@ -193,16 +193,32 @@ fn gather(
         }
         let Some(outline) = frame.clip_triangle(set.triangle(slot)) else { continue };
         let (pts, n) = (&outline.corners[..outline.count], outline.count);
-        let area: f64 = (0..n).map(|k| pts[k].perp_dot(pts[(k + 1) % n])).sum();
-        if area == 0.0 {
+        let ids = set.corners[slot as usize];
+        let v = ids.map(|i| set.vertices[i as usize].as_dvec3());
+        // Seen from o, the triangle turns counter-clockwise on the light iff this is -1; 0:
+        // o in its plane, it hides nothing.
+        let turn = -exact_orient_sign(frame.o, v[0], v[1], v[2]);
+        if turn == 0 {
             continue;
         }
-        // The triangle adds 1 to D inside its outline: on the left of a counter-clockwise one.
-        let jump = if area > 0.0 { 1 } else { -1 };
-        let lo = s.corners.len() as u32;
-        for k in 0..n {
-            s.segments.push(Segment { p0: pts[k], p1: pts[(k + 1) % n], jump });
+        if v.iter().all(|&x| frame.normal.dot(x - frame.centre) >= 0.0) {
+            // Wholly on o's side of the light's plane: each side projected as an active edge
+            // is (`clip`, its lower welded vertex first), so that a side shared with a
+            // counted triangle's edge, or another outline's, is the same segment bit for bit.
+            for k in 0..3 {
+                let (a, b) = (k, (k + 1) % 3);
+                let (lo, hi, sign) = if ids[a] < ids[b] { (a, b, 1) } else { (b, a, -1) };
+                if let Some((p0, p1)) = clip(frame, v[lo], v[hi]) {
+                    s.segments.push(Segment { p0, p1, jump: sign * turn });
+                }
+            }
+        } else {
+            // Across the light's plane: the outline clipped there (its cut is its own).
+            for k in 0..n {
+                s.segments.push(Segment { p0: pts[k], p1: pts[(k + 1) % n], jump: turn });
+            }
         }
+        let lo = s.corners.len() as u32;
         s.corners.extend_from_slice(pts);
         s.outlines.push((lo, s.corners.len() as u32));
         c.outlines.fetch_add(1, Ordering::Relaxed);
