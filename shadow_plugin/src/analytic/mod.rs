@@ -73,6 +73,10 @@ impl MethodParams for AnalyticParams {
 /// Why a point was answered by counting rather than integrated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Fallback {
+    /// Alpha-tested leaves too many over the light to estimate their share cheaply.
+    Alpha,
+    /// More active edges than the arrangement pays for against counting.
+    Costly,
     /// The shaft's candidates could not be gathered (too deep a tree), or no frame.
     NoShaft,
     /// Collinear overlapping projections, a T-junction, a lone end.
@@ -105,7 +109,7 @@ struct Counters {
     crossings: AtomicU64,
     pieces: AtomicU64,
     merged: AtomicU64,
-    fallback: [AtomicU64; 4],
+    fallback: [AtomicU64; 6],
     alpha_points: AtomicU64,
     alpha_rays: AtomicU64,
 }
@@ -167,6 +171,8 @@ impl LightShadowing for Analytic {
             ("point_sides_alpha_sampled", load(&c.alpha_points)),
             ("alpha_sample_rays", load(&c.alpha_rays)),
             ("points_counted_no_shaft", f(Fallback::NoShaft)),
+            ("points_counted_alpha", f(Fallback::Alpha)),
+            ("points_counted_costly", f(Fallback::Costly)),
             ("points_counted_degenerate", f(Fallback::Degenerate)),
             ("points_counted_inconsistent", f(Fallback::Inconsistent)),
             ("points_counted_certificate", f(Fallback::Certificate)),
