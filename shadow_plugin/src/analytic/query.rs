@@ -22,10 +22,11 @@ use std::sync::atomic::Ordering;
 const LEAF_STRATA_PER_SAMPLE: u32 = 1;
 
 /// A safety net: a side with more active edges than this is counted instead. The arrangement
-/// costs about 1 us per active edge with ~1 crossing each (flight-helmet under the softbox:
-/// 4,200 edges and 5,200 crossings a point, 12.8x `traced` at N = 1024 at 320x240), `traced`
-/// 0.25-1.3 ms a point at N = 1024: past ~1,000 edges a point costs more than 3 of its.
-const MAX_ACTIVE_EDGES: usize = 1000;
+/// costs about 1 us per active edge with ~1 crossing each, `traced` 0.25-1.3 ms a point at
+/// N = 1024. Measured on flight-helmet under the softbox (320x240, side by side with
+/// `traced`): no cap 12.8x, 3,000 2.8x (penumbra RMSE 2.7e-3: the counted points carry
+/// `traced`'s noise), 1,000 2.3x; on flight-helmet 1.75x at 3,000.
+const MAX_ACTIVE_EDGES: usize = 3000;
 
 /// One thread's working memory, reused by every point.
 #[derive(Default)]
