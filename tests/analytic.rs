@@ -303,3 +303,104 @@ fn analytic_matches_lambert_closed_forms_at_every_scale_and_height() {
     eprintln!("{checked} points, {penumbra} in penumbra, worst error {worst:e}");
     assert!(penumbra > 1000, "only {penumbra} penumbra points");
 }
+
+mod common;
+#[path = "common/folders.rs"]
+mod folders;
+
+use common::gltf_writer::TempDir;
+use common::soups;
+
+/// The per-pixel visibility of `scene` (light 0) rendered by `method` at `samples`.
+fn visibility(scene: &std::path::Path, method: &str, samples: u32, out: &std::path::Path) -> Vec<f32> {
+    let png = out.join(format!("{method}.png"));
+    let n = samples.to_string();
+    let args = [
+        "render",
+        scene.to_str().unwrap(),
+        "--shadows",
+        method,
+        "--samples",
+        &n,
+        "--width",
+        "40",
+        "--height",
+        "30",
+    ];
+    let tail = ["--max-depth", "2", "--spp", "1", "--aov", "--quiet", "--out", png.to_str().unwrap()];
+    let run = folders::penumbra(&[&args[..], &tail[..]].concat(), out);
+    assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let exr = out.join(format!("{method}.visibility.0.exr"));
+    image::open(&exr).unwrap().into_rgb32f().pixels().map(|p| p[0]).collect()
+}
+
+/// The differential soups `silhouette` is tested on, in `scenes` (rendered into `dir`),
+/// against `traced` at N = 16,384: the penumbra pixels' count, the mean and rms of the
+/// difference, the mean's standard error, and the worst pixel.
+fn soup_differences(dir: &TempDir, scenes: &[std::path::PathBuf]) -> (usize, f64, f64, f64, (f64, String)) {
+    let (mut n, mut sum, mut sum2, mut worst) = (0usize, 0.0f64, 0.0f64, (0.0f64, String::new()));
+    for (k, scene) in scenes.iter().enumerate() {
+        let out = dir.path.join(format!("run-{k}"));
+        std::fs::create_dir_all(&out).unwrap();
+        let a = visibility(scene, "analytic", 16384, &out);
+        let t = visibility(scene, "traced", 16384, &out);
+        for (i, (&va, &vt)) in a.iter().zip(&t).enumerate() {
+            if !(0.002..0.998).contains(&vt) {
+                continue;
+            }
+            let d = va as f64 - vt as f64;
+            (n, sum, sum2) = (n + 1, sum + d, sum2 + d * d);
+            if d.abs() > worst.0 {
+                worst = (d.abs(), format!("{} pixel {i}: analytic {va}, traced {vt}", scene.display()));
+            }
+        }
+    }
+    let mean = sum / n as f64;
+    let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+    let rms = (sum2 / n as f64).sqrt();
+    eprintln!(
+        "{} scenes, {n} penumbra pixels: mean difference {mean:.2e} +- {se:.1e}, rms {rms:.2e}, worst {:.2e} ({})",
+        scenes.len(),
+        worst.0,
+        worst.1
+    );
+    (n, mean, rms, se, worst)
+}
+
+/// The differential soups `silhouette` is tested on (random soups with shared, duplicated and
+/// reversed triangles; terraced heightfields; crossing closed boxes, non-manifold fans;
+/// smoothed normals; alpha-tested leaves; instanced meshes), each under a light of its own
+/// size: against `traced` at N = 16,384, whose own noise per penumbra pixel is about
+/// 2.5e-3 x 16^-0.75 = 3e-4 (docs/notes/2026-11-28-visibility-estimators.md): no pixel more
+/// than 0.01 off (33 of its sigma), and no bias (the mean difference within 4 standard
+/// errors). `analytic` counts its inexact points at the same N. The T-junction soup is
+/// tested on its own below: it fails today.
+#[test]
+fn differential_soups_agree_with_traced_within_its_noise() {
+    let dir = TempDir::new("analytic-soups");
+    let mut scenes = soups::soups_and_terraces(&dir, 17);
+    scenes.extend(soups::stress_soups(&dir, 29));
+    scenes.extend(soups::smooth_soups(&dir, 31));
+    scenes.extend(soups::alpha_soups(&dir, 37));
+    scenes.extend(soups::instanced_soups(&dir, 41));
+    scenes.retain(|s| !s.ends_with("t_junctions.toml"));
+    let (n, mean, _, se, worst) = soup_differences(&dir, &scenes);
+    assert!(n > 2000, "only {n} penumbra pixels");
+    assert!(worst.0 <= 0.01, "worst {:.3e}: {}", worst.0, worst.1);
+    assert!(mean.abs() <= 4.0 * se + 1e-6, "bias {mean:.2e} +- {se:.1e}");
+}
+
+/// An open defect: triangles whose corners lie on other triangles' sides (T-junctions in 3D)
+/// give points where every face of lowest count is blocked to its ray, so `analytic` answers
+/// umbra where `traced` sees up to 0.3 of the light (the second-opinion ray turns most of
+/// them into counted points; 0.035 is left). Run with `--ignored`.
+#[test]
+#[ignore = "open defect: T-junction soup, analytic 0 where traced 0.035"]
+fn t_junction_soup_agrees_with_traced_within_its_noise() {
+    let dir = TempDir::new("analytic-t-junctions");
+    let mut scenes = soups::stress_soups(&dir, 29);
+    scenes.retain(|s| s.ends_with("t_junctions.toml"));
+    assert_eq!(scenes.len(), 1);
+    let (_, _, _, _, worst) = soup_differences(&dir, &scenes);
+    assert!(worst.0 <= 0.01, "worst {:.3e}: {}", worst.0, worst.1);
+}

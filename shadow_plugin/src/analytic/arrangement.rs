@@ -122,6 +122,9 @@ pub struct Arrangement {
     /// The lowest relative depth and a point inside a face that has it.
     pub min_rel: i32,
     pub target: DVec2,
+    /// A point beside the second longest piece of the lowest depth, if there is one: a
+    /// second opinion where the ray to the first is blocked.
+    pub second: Option<DVec2>,
 }
 
 impl Arrangement {
@@ -432,18 +435,26 @@ impl Arrangement {
     /// other segment or side.
     fn find_min(&mut self) {
         let mut min = i32::MAX;
-        // (length, middle, inward normal, its segment or usize::MAX, its side or usize::MAX)
-        let mut best = (f64::NEG_INFINITY, DVec2::ZERO, DVec2::ZERO, usize::MAX, usize::MAX);
+        // The two longest pieces of the lowest depth: (length, middle, inward normal, its
+        // segment or usize::MAX, its side or usize::MAX).
+        type Piece = (f64, DVec2, DVec2, usize, usize);
+        let none: Piece = (f64::NEG_INFINITY, DVec2::ZERO, DVec2::ZERO, usize::MAX, usize::MAX);
+        let mut best = [none; 2];
         let mut consider = |rel: i32, (a, b): (DVec2, DVec2), inward_left: bool, owner: (usize, usize)| {
             let len = (b - a).length();
-            if len <= 0.0 {
+            if len <= 0.0 || rel > min {
                 return;
             }
-            if rel < min || (rel == min && len > best.0) {
-                min = rel;
-                let d = (b - a) / len;
-                let normal = if inward_left { d.perp() } else { -d.perp() };
-                best = (len, 0.5 * (a + b), normal, owner.0, owner.1);
+            if rel < min {
+                (min, best) = (rel, [none; 2]);
+            }
+            let d = (b - a) / len;
+            let normal = if inward_left { d.perp() } else { -d.perp() };
+            let piece = (len, 0.5 * (a + b), normal, owner.0, owner.1);
+            if len > best[0].0 {
+                best = [piece, best[0]];
+            } else if len > best[1].0 {
+                best[1] = piece;
             }
         };
         self.for_boundary_pieces(|a, b, rel, side| consider(rel, (a, b), true, (usize::MAX, side)));
@@ -457,7 +468,14 @@ impl Arrangement {
                 consider(right, ends, false, (s, usize::MAX));
             }
         }
-        let (len, mid, normal, seg, side) = best;
+        self.min_rel = min;
+        self.target = self.inside(best[0]);
+        self.second = (best[1].0 > 0.0).then(|| self.inside(best[1]));
+    }
+
+    /// A point inside the face beside a piece: off its middle, a quarter of the way to the
+    /// nearest other segment or side.
+    fn inside(&self, (len, mid, normal, seg, side): (f64, DVec2, DVec2, usize, usize)) -> DVec2 {
         let mut room = 0.5 * len;
         for (j, c) in self.segs.iter().enumerate() {
             if j != seg {
@@ -468,8 +486,7 @@ impl Arrangement {
         for k in (0..n).filter(|&k| k != side) {
             room = room.min(distance_to_segment(mid, self.domain[k], self.domain[(k + 1) % n]));
         }
-        self.min_rel = min;
-        self.target = mid + 0.25 * room * normal;
+        mid + 0.25 * room * normal
     }
 
     /// The oriented pieces bounding the region of depth `level` (counter-clockwise round
