@@ -430,31 +430,31 @@ impl Arrangement {
         }
     }
 
-    /// The lowest depth over every piece of positive length, and a point inside a face with
-    /// it: beside the middle of its longest piece, a quarter of the way to the nearest
-    /// other segment or side.
+    /// The lowest depth over every piece of positive length, and two points inside faces
+    /// with it: beside the middles of its longest pieces, those with the most room.
     fn find_min(&mut self) {
+        /// The longest pieces of the lowest depth a target is chosen from.
+        const CANDIDATES: usize = 4;
         let mut min = i32::MAX;
         // The two longest pieces of the lowest depth: (length, middle, inward normal, its
         // segment or usize::MAX, its side or usize::MAX).
         type Piece = (f64, DVec2, DVec2, usize, usize);
         let none: Piece = (f64::NEG_INFINITY, DVec2::ZERO, DVec2::ZERO, usize::MAX, usize::MAX);
-        let mut best = [none; 2];
+        let mut best = [none; CANDIDATES];
         let mut consider = |rel: i32, (a, b): (DVec2, DVec2), inward_left: bool, owner: (usize, usize)| {
             let len = (b - a).length();
             if len <= 0.0 || rel > min {
                 return;
             }
             if rel < min {
-                (min, best) = (rel, [none; 2]);
+                (min, best) = (rel, [none; CANDIDATES]);
             }
             let d = (b - a) / len;
             let normal = if inward_left { d.perp() } else { -d.perp() };
             let piece = (len, 0.5 * (a + b), normal, owner.0, owner.1);
-            if len > best[0].0 {
-                best = [piece, best[0]];
-            } else if len > best[1].0 {
-                best[1] = piece;
+            if let Some(k) = best.iter().position(|b| len > b.0) {
+                best[k..].rotate_right(1);
+                best[k] = piece;
             }
         };
         self.for_boundary_pieces(|a, b, rel, side| consider(rel, (a, b), true, (usize::MAX, side)));
@@ -469,13 +469,21 @@ impl Arrangement {
             }
         }
         self.min_rel = min;
-        self.target = self.inside(best[0]);
-        self.second = (best[1].0 > 0.0).then(|| self.inside(best[1]));
+        // Of the longest pieces, the two with the most room beside them: a sliver between
+        // two nearly parallel segments (a T-junction's projection) may share the lowest
+        // count with the face that is lit, and its ray may then be blocked.
+        let mut points = [(f64::NEG_INFINITY, DVec2::ZERO); CANDIDATES];
+        for (point, piece) in points.iter_mut().zip(best.iter().filter(|b| b.0 > 0.0)) {
+            *point = self.inside(*piece);
+        }
+        points.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+        self.target = points[0].1;
+        self.second = (points[1].0 > 0.0).then_some(points[1].1);
     }
 
     /// A point inside the face beside a piece: off its middle, a quarter of the way to the
-    /// nearest other segment or side.
-    fn inside(&self, (len, mid, normal, seg, side): (f64, DVec2, DVec2, usize, usize)) -> DVec2 {
+    /// nearest other segment or side; and that room.
+    fn inside(&self, (len, mid, normal, seg, side): (f64, DVec2, DVec2, usize, usize)) -> (f64, DVec2) {
         let mut room = 0.5 * len;
         for (j, c) in self.segs.iter().enumerate() {
             if j != seg {
@@ -486,7 +494,7 @@ impl Arrangement {
         for k in (0..n).filter(|&k| k != side) {
             room = room.min(distance_to_segment(mid, self.domain[k], self.domain[(k + 1) % n]));
         }
-        mid + 0.25 * room * normal
+        (room, mid + 0.25 * room * normal)
     }
 
     /// The oriented pieces bounding the region of depth `level` (counter-clockwise round
