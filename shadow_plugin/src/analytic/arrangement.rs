@@ -27,56 +27,12 @@
 //! [`Failure::Inconsistent`]: the caller answers such a point another way and counts it.
 
 use super::contacts::{Contact, Merge, contact};
+use super::segment::{Clipped, Crossing};
+pub use super::segment::{Failure, Segment, orient};
 use glam::DVec2;
-
-/// One projected edge: depth jumps by `jump` = D(left) - D(right) across it.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Segment {
-    pub p0: DVec2,
-    pub p1: DVec2,
-    pub jump: i32,
-}
-
-/// Why a point's arrangement is not trusted.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Failure {
-    /// Collinear overlap, a T-junction, a lone end inside the domain, an end on a side.
-    Degenerate,
-    /// Two paths gave one piece different depths, or a loop of jumps did not close.
-    Inconsistent,
-}
 
 /// Most sides of the domain: the rectangle clipped by one line has at most five.
 pub const MAX_DOMAIN: usize = 8;
-
-/// Sign of orient2d(a, b, c): positive where a, b, c turn counter-clockwise. Exact.
-#[inline]
-pub fn orient(a: DVec2, b: DVec2, c: DVec2) -> i8 {
-    let p = |v: DVec2| robust::Coord { x: v.x, y: v.y };
-    let d = robust::orient2d(p(a), p(b), p(c));
-    (d > 0.0) as i8 - (d < 0.0) as i8
-}
-
-/// A clipped segment with where its ends lie on the domain's boundary (`s` = side index +
-/// position along it, or NaN for an end inside).
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Clipped {
-    pub(super) seg: Segment,
-    pub(super) s: [f64; 2],
-}
-
-/// One crossing of segments `i` and `j`, at `point`; `ti`, `tj` its parameters along them.
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Crossing {
-    pub(super) i: u32,
-    pub(super) j: u32,
-    pub(super) ti: f64,
-    pub(super) tj: f64,
-    pub(super) point: DVec2,
-    /// i's start lies on j's right, j's start on i's right.
-    pub(super) i0_right_of_j: bool,
-    pub(super) j0_right_of_i: bool,
-}
 
 /// A segment end on the boundary: its position, segment, and which end.
 #[derive(Debug, Clone, Copy)]

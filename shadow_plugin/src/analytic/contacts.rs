@@ -7,7 +7,7 @@
 //! end only at its members' own end points, so no new point is computed: ends shared with
 //! other segments stay bit-identical.
 
-use super::arrangement::{Clipped, Crossing, Failure, Segment, orient};
+use super::segment::{Clipped, Crossing, Failure, Segment, orient};
 use glam::DVec2;
 
 /// How two segments meet.

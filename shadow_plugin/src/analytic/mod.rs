@@ -26,6 +26,7 @@ mod contacts;
 mod entry;
 pub mod lambert;
 mod query;
+pub mod segment;
 
 use crate::silhouette::Silhouette;
 use renderer::interface::method::NoKeys;
