@@ -7,6 +7,7 @@
 //! that of the leaves' share alone, at the density of [shadows].samples over their box.
 
 use super::lambert::LightPlane;
+use super::segment::inside_convex;
 use crate::silhouette_edges::projection::Region;
 use glam::{DVec2, Vec3};
 use renderer::util::random::{mix64, strata, stream_seed};
@@ -97,7 +98,7 @@ pub(super) fn hidden_by_leaves(
     let (mut sum, mut rays) = (0.0, 0u64);
     for held in pairs.chunk_by(|x, y| x >> 32 == y >> 32) {
         let q = sample(held[0] >> 32);
-        if !inside(part, q) {
+        if !inside_convex(part, q) {
             continue;
         }
         let (a, b) = (q.x as f32, q.y as f32);
@@ -111,18 +112,13 @@ pub(super) fn hidden_by_leaves(
         rays += 1;
         let opaque = scene
             .segment_occluded_from_except(leaves.origin, target, ends, |s| leaves.flags[s] != 0)
-            || leaves.outlines.iter().any(|&(l, h)| inside(&leaves.corners[l as usize..h as usize], q));
+            || leaves
+                .outlines
+                .iter()
+                .any(|&(l, h)| inside_convex(&leaves.corners[l as usize..h as usize], q));
         if !opaque {
             sum += plane.weight(q);
         }
     }
     Some((sum * cell.x * cell.y, rays))
-}
-
-/// Whether convex polygon `corners` (either orientation) holds `q`.
-fn inside(corners: &[DVec2], q: DVec2) -> bool {
-    let n = corners.len();
-    let side = |k: usize| (corners[(k + 1) % n] - corners[k]).perp_dot(q - corners[k]);
-    let first = (0..n).map(side).find(|&x| x != 0.0).unwrap_or(0.0);
-    (0..n).all(|k| side(k) * first >= 0.0)
 }

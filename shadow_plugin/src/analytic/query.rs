@@ -3,6 +3,7 @@
 use super::alpha::{Leaves, hidden_by_leaves};
 use super::arrangement::{Arrangement, Failure, MAX_DOMAIN, Segment};
 use super::lambert::{LightPlane, clip_polygon};
+use super::segment::inside_convex;
 use super::{Analytic, Fallback};
 use crate::silhouette_edges::edges::{ALPHA, NEAR_LIGHT};
 use crate::silhouette_edges::projection::{Frame, clip, exact_orient_sign};
@@ -148,7 +149,7 @@ fn side_lit(
             let target = light.point(t.x as f32, t.y as f32);
             let ends = (light.point_error(t.x as f32, t.y as f32), light.normal);
             scene.segment_occluded_from_except(side.origin, target, ends, |slot| flags[slot] != 0)
-                || s.outlines.iter().any(|&(lo, hi)| holds(&s.corners[lo as usize..hi as usize], t))
+                || s.outlines.iter().any(|&(lo, hi)| inside_convex(&s.corners[lo as usize..hi as usize], t))
         };
         if opaque_at(t) {
             // Umbra, unless a second point of the lowest depth is seen: then the counts and
@@ -288,12 +289,4 @@ fn merge_duplicates(segments: &mut Vec<Segment>) -> usize {
     });
     segments.retain(|s| s.jump != 0);
     before - segments.len()
-}
-
-/// Whether the convex polygon `corners` (either orientation) holds `p` strictly inside.
-fn holds(corners: &[DVec2], p: DVec2) -> bool {
-    let n = corners.len();
-    let side = |k: usize| (corners[(k + 1) % n] - corners[k]).perp_dot(p - corners[k]);
-    let first = side(0);
-    first != 0.0 && (1..n).all(|k| side(k) * first > 0.0)
 }

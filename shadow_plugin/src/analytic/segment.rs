@@ -50,3 +50,11 @@ pub(crate) struct Crossing {
     pub(crate) i0_right_of_j: bool,
     pub(crate) j0_right_of_i: bool,
 }
+
+/// Whether the convex polygon `corners` (either orientation) holds `q` (its sides too).
+pub(crate) fn inside_convex(corners: &[DVec2], q: DVec2) -> bool {
+    let n = corners.len();
+    let side = |k: usize| (corners[(k + 1) % n] - corners[k]).perp_dot(q - corners[k]);
+    let first = (0..n).map(side).find(|&x| x != 0.0).unwrap_or(0.0);
+    (0..n).all(|k| side(k) * first >= 0.0)
+}
