@@ -3,15 +3,7 @@
 //! level sets' areas summing to the domain's.
 
 use super::*;
-
-fn uniform(mut state: u64) -> impl FnMut() -> f64 {
-    move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+use crate::silhouette_edges::uniform;
 
 /// A random star-shaped polygon (simple), in either orientation: it adds 1 to D inside.
 fn polygon(next: &mut impl FnMut() -> f64) -> Vec<DVec2> {

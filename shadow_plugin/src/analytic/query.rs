@@ -70,7 +70,7 @@ pub(super) fn visibility(plugin: &Analytic, scene: &Scene, q: &ShadowQuery) -> R
     let ng = point.n_geom.as_dvec3();
     // The exactly integrated part, and what alpha-tested leaves take from it (estimated).
     let (mut lit, mut leaves) = (0.0, 0.0);
-    for side in Side::both(point, origin) {
+    for side in Side::both(point, origin, shaft) {
         let mut part = [DVec2::ZERO; MAX_DOMAIN];
         let sign = if side.below { -1.0 } else { 1.0 };
         let m = clip_polygon(domain, |q| sign * plane.height(ng, q), &mut part);
@@ -103,15 +103,21 @@ struct Side {
     point: ShadingPoint,
     origin: Vec3,
     below: bool,
+    /// The shaft from the side's origin to the light, where it is already known (above:
+    /// the one the point's clear test built).
+    shaft: Option<Shaft>,
 }
 
 impl Side {
-    fn both(point: &ShadingPoint, origin: Vec3) -> [Side; 2] {
+    fn both(point: &ShadingPoint, origin: Vec3, shaft: Shaft) -> [Side; 2] {
         let mut flipped = *point;
         flipped.n_geom = -flipped.n_geom;
         flipped.n_shading = -flipped.n_shading;
         let below = offset_origin(&flipped, flipped.n_geom);
-        [Side { point: *point, origin, below: false }, Side { point: flipped, origin: below, below: true }]
+        [
+            Side { point: *point, origin, below: false, shaft: Some(shaft) },
+            Side { point: flipped, origin: below, below: true, shaft: None },
+        ]
     }
 }
 
@@ -129,7 +135,7 @@ fn side_lit(
     let frame = Frame::new(light, side.origin).ok_or(Fallback::NoShaft)?;
     SCRATCH.with(|cell| {
         let s = &mut *cell.borrow_mut();
-        gather(plugin, scene, &side.point, &frame, s)?;
+        gather(plugin, scene, side, &frame, s)?;
         let c = &plugin.counters;
         let arr = &mut s.arrangement;
         arr.build(part, &s.segments).map_err(|f| match f {
@@ -193,14 +199,18 @@ fn side_lit(
 fn gather(
     plugin: &Analytic,
     scene: &Scene,
-    point: &ShadingPoint,
+    side: &Side,
     frame: &Frame,
     s: &mut Scratch,
 ) -> Result<(), Fallback> {
     let light = plugin.light();
     let occluders = plugin.counting.occluders();
     // The whole hull: every edge projected anywhere over the light counts.
-    let shaft = Shaft::new(light, point).ok_or(Fallback::NoShaft)?.without_cut();
+    let shaft = match side.shaft {
+        Some(shaft) => shaft,
+        None => Shaft::new(light, &side.point).ok_or(Fallback::NoShaft)?,
+    }
+    .without_cut();
     s.edges.gather(occluders, light, scene, &shaft, frame.o, usize::MAX).map_err(|why| match why {
         GatherRefusal::TooManyCandidates | GatherRefusal::NoShaft | GatherRefusal::KeptInstance => {
             Fallback::NoShaft
