@@ -67,7 +67,6 @@ pub struct Arrangement {
     boundary: Vec<BoundaryEnd>,
     /// D inside the boundary piece after each boundary end (the whole boundary if none).
     boundary_rel: Vec<i32>,
-    whole_boundary_rel: i32,
     queue: Vec<u32>,
     order: Vec<(f64, u32)>,
     /// Pairs of segments found on one line, overlapping, and the merge's buffers.
@@ -326,7 +325,6 @@ impl Arrangement {
         }
         self.boundary.sort_unstable_by(|a, b| a.s.total_cmp(&b.s));
         self.boundary_rel.clear();
-        self.whole_boundary_rel = 0;
         let mut d = 0;
         for e in &self.boundary {
             // Arriving (end 1): the piece after is on the segment's left.
@@ -368,7 +366,8 @@ impl Arrangement {
         let m = self.boundary.len();
         if m == 0 {
             for k in 0..n {
-                f(self.domain[k], self.domain[(k + 1) % n], self.whole_boundary_rel, k);
+                // No end on it: the whole boundary is the reference, depth 0.
+                f(self.domain[k], self.domain[(k + 1) % n], 0, k);
             }
             return;
         }
@@ -475,9 +474,9 @@ impl Arrangement {
         }
     }
 
-    /// Counters: segments inside the domain, crossings, pieces.
-    pub fn sizes(&self) -> (usize, usize, usize) {
-        (self.segs.len(), self.crossings.len(), self.segs.len() + 2 * self.crossings.len())
+    /// Counters: crossings, and pieces (each crossing splits two segments).
+    pub fn sizes(&self) -> (usize, usize) {
+        (self.crossings.len(), self.segs.len() + 2 * self.crossings.len())
     }
 }
 

@@ -142,7 +142,7 @@ fn side_lit(
             Failure::Degenerate => Fallback::Degenerate,
             Failure::Inconsistent => Fallback::Inconsistent,
         })?;
-        let (_, crossings, pieces) = arr.sizes();
+        let (crossings, pieces) = arr.sizes();
         c.crossings.fetch_add(crossings as u64, Ordering::Relaxed);
         c.pieces.fetch_add(pieces as u64, Ordering::Relaxed);
         // The constant: D at a point of the lowest face, by one ray through the counted
