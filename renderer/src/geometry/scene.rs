@@ -421,6 +421,15 @@ impl Scene {
         flat || self.kept_occluded(&ray, &sheared)
     }
 
+    /// Whether the alpha test cuts out the point of triangle `slot` at barycentrics (b1, b2)
+    /// (weights of its second and third corners): the test a ray's hit gets, for a method
+    /// that finds the point on the triangle without a ray.
+    pub fn cut_out_at(&self, slot: usize, b1: f32, b2: f32) -> bool {
+        self.any_alpha_test
+            && self.materials[self.shading[slot].material as usize]
+                .is_cutout(self.uv_at(slot, b1, b2), &self.textures)
+    }
+
     /// Whether the shadow ray [`Scene::segment_occluded_from`] builds meets any of the
     /// triangles `slots` (alpha test honoured), tried in order until one is met: the same ray
     /// and the same test its traversal applies to each, for a method that knows which few

@@ -25,6 +25,7 @@ pub mod arrangement;
 mod contacts;
 mod entry;
 pub mod lambert;
+mod lit_region;
 mod query;
 pub mod segment;
 
@@ -112,7 +113,7 @@ struct Counters {
     merged: AtomicU64,
     fallback: [AtomicU64; 6],
     alpha_points: AtomicU64,
-    alpha_rays: AtomicU64,
+    alpha_tests: AtomicU64,
 }
 
 impl Analytic {
@@ -170,7 +171,7 @@ impl LightShadowing for Analytic {
             ("pieces", load(&c.pieces)),
             ("segments_merged", load(&c.merged)),
             ("point_sides_alpha_sampled", load(&c.alpha_points)),
-            ("alpha_sample_rays", load(&c.alpha_rays)),
+            ("alpha_leaf_tests", load(&c.alpha_tests)),
             ("points_counted_no_shaft", f(Fallback::NoShaft)),
             ("points_counted_alpha", f(Fallback::Alpha)),
             ("points_counted_costly", f(Fallback::Costly)),
