@@ -10,6 +10,7 @@
 
 use super::lambert::LightPlane;
 use super::lit_region::LitRegion;
+use super::rows::Rows;
 use super::segment::inside_convex;
 use crate::silhouette_edges::edges::EdgeSet;
 use crate::silhouette_edges::projection::Region;
@@ -18,13 +19,12 @@ use renderer::util::random::{mix64, strata, stream_seed};
 use renderer::{RectLight, Scene};
 
 /// What one side's alpha estimate needs: the light, the rays' origin, the flags of the
-/// triangles left out of the counting, and the region the opaque geometry leaves visible.
+/// triangles left out of the counting, their projections, and the triangles.
 pub(super) struct Leaves<'a> {
     pub light: &'a RectLight,
     pub origin: Vec3,
     pub flags: &'a [u8],
     pub regions: &'a [Region],
-    pub lit: &'a LitRegion,
     pub edges: &'a EdgeSet,
 }
 
@@ -132,7 +132,7 @@ impl Grid<'_> {
 
 /// What a sample has been found to be (each is weighed once).
 fn settle(
-    (scene, leaves, part): (&Scene, &Leaves, &[DVec2]),
+    (scene, lit, part): (&Scene, &LitRegion, &[DVec2]),
     (r, leaf): (&Region, &LeafMap),
     q: impl FnOnce() -> DVec2,
     state: &mut u8,
@@ -146,7 +146,7 @@ fn settle(
         return false;
     }
     if *state == UNKNOWN {
-        let seen = inside_convex(part, q) && leaves.lit.holds(q);
+        let seen = inside_convex(part, q) && lit.holds(q);
         *state = if seen { VISIBLE } else { SKIP };
         if !seen {
             return false;
@@ -161,9 +161,10 @@ fn settle(
 }
 
 /// Reused memory of [`hidden_by_leaves`]: the cells' states, their sub-samples' states, the
-/// refined cells' first sub-state, and the grid's cuts.
+/// refined cells' first sub-state, and the grid's cuts; and [`hidden_on_rows`]' leaves.
 #[derive(Default)]
 pub(super) struct LeafScratch {
+    maps: Vec<(usize, LeafMap)>,
     cells: Vec<u8>,
     subs: Vec<u8>,
     refined: Vec<u32>,
@@ -178,7 +179,7 @@ pub(super) struct LeafScratch {
 pub(super) fn hidden_by_leaves(
     scene: &Scene,
     plane: &LightPlane,
-    leaves: &Leaves,
+    (leaves, lit): (&Leaves, &LitRegion),
     (part, m): (&[DVec2], &mut LeafScratch),
     (samples, seed): (u32, u64),
 ) -> Option<(f64, u64)> {
@@ -189,7 +190,7 @@ pub(super) fn hidden_by_leaves(
     }
     let (plo, phi) =
         part.iter().fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(l, h), &q| (l.min(q), h.max(q)));
-    let (llo, lhi) = leaves.lit.bounds();
+    let (llo, lhi) = lit.bounds();
     let (lo, hi) = (lo.max(plo).max(llo), hi.min(phi).min(lhi));
     if !(lo.x < hi.x && lo.y < hi.y) {
         return Some((0.0, 0));
@@ -207,7 +208,7 @@ pub(super) fn hidden_by_leaves(
     if visits as u64 > MAX_TESTS_PER_STRATUM * (nx * ny) as u64 {
         return None;
     }
-    let ctx = (scene, leaves, part);
+    let ctx = (scene, lit, part);
     let mut tests = 0u64;
     // One sample a cell, each tested against the leaves holding it until one hides it.
     m.cells.clear();
@@ -283,4 +284,67 @@ fn refine(cells: &[u8], (nx, ny): (usize, usize), refined: &mut Vec<u32>) {
             }
         }
     }
+}
+
+/// What leaves take from the rows' intervals at depth `level` ([`Rows`], where the edges are
+/// many), in the rows' units (weight times length): `per_row` jittered cells along each row
+/// over the part's width, each tested against the leaves whose regions hold it (their
+/// projective maps: no ray) until one hides it. And the tests it made.
+pub(super) fn hidden_on_rows(
+    scene: &Scene,
+    (plane, leaves): (&LightPlane, &Leaves),
+    (rows, level): (&Rows, i32),
+    (per_row, seed): (u32, u64),
+    m: &mut LeafScratch,
+) -> (f64, u64) {
+    let is_alpha = |r: &Region| leaves.flags[r.slot as usize] & crate::silhouette_edges::edges::ALPHA != 0;
+    m.maps.clear();
+    for (k, r) in leaves.regions.iter().enumerate().filter(|(_, r)| is_alpha(r)) {
+        m.maps.push((k, LeafMap::new(leaves, r.slot)));
+    }
+    let (lo, hi) = rows.rows().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), r| (l.min(r.1), h.max(r.2)));
+    let dx = (hi - lo) / per_row as f64;
+    let key = stream_seed(&[seed, 0x0005_1eaf]);
+    let (mut hidden, mut tests) = (0.0, 0u64);
+    for (j, (y, x0, x1)) in rows.rows().enumerate() {
+        m.cells.clear();
+        m.cells.resize(per_row as usize, UNKNOWN);
+        for (k, map) in &m.maps {
+            let r = &leaves.regions[*k];
+            if !(r.lo.y <= y && y <= r.hi.y) {
+                continue;
+            }
+            let (a, b) = (r.lo.x.max(x0), r.hi.x.min(x1));
+            if a >= b || a.is_nan() || b.is_nan() {
+                continue;
+            }
+            let first = ((a - lo) / dx).floor().max(0.0) as usize;
+            let last = (((b - lo) / dx).floor().max(0.0) as usize).min(per_row as usize - 1);
+            for i in first..=last.max(first).min(per_row as usize - 1) {
+                let state = &mut m.cells[i];
+                if *state == SKIP || *state == HIDDEN {
+                    continue;
+                }
+                let c = (j as u64) << 32 | i as u64;
+                let u =
+                    (mix64(key ^ c.wrapping_mul(0x9e37_79b9_7f4a_7c15)) >> 11) as f64 / (1u64 << 53) as f64;
+                let q = DVec2::new(lo + (i as f64 + u) * dx, y);
+                if !r.holds(q) {
+                    continue;
+                }
+                if *state == UNKNOWN {
+                    *state = if rows.at_level(j, level, q.x) { VISIBLE } else { SKIP };
+                    if *state == SKIP {
+                        continue;
+                    }
+                }
+                tests += 1;
+                if map.hides(scene, q) {
+                    *state = HIDDEN;
+                    hidden += plane.weight(q) * dx;
+                }
+            }
+        }
+    }
+    (hidden, tests)
 }

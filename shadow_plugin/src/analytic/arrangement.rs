@@ -491,4 +491,4 @@ mod propagate;
 
 #[cfg(test)]
 #[path = "arrangement_tests.rs"]
-mod tests;
+pub(super) mod tests;

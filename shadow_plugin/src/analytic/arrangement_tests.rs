@@ -6,7 +6,7 @@ use super::*;
 use crate::silhouette_edges::uniform;
 
 /// A random star-shaped polygon (simple), in either orientation: it adds 1 to D inside.
-fn polygon(next: &mut impl FnMut() -> f64) -> Vec<DVec2> {
+pub(in crate::analytic) fn polygon(next: &mut impl FnMut() -> f64) -> Vec<DVec2> {
     let centre = DVec2::new(1.4 * next() - 0.2, 1.4 * next() - 0.2);
     let n = 3 + (next() * 6.0) as usize;
     // Gaps under pi between consecutive corners keep it simple.
@@ -21,7 +21,7 @@ fn polygon(next: &mut impl FnMut() -> f64) -> Vec<DVec2> {
 }
 
 /// The polygon's edges with their jumps: D rises by its winding inside.
-fn edges(poly: &[DVec2], out: &mut Vec<Segment>) {
+pub(in crate::analytic) fn edges(poly: &[DVec2], out: &mut Vec<Segment>) {
     let area: f64 = (0..poly.len()).map(|k| poly[k].perp_dot(poly[(k + 1) % poly.len()])).sum();
     let jump = if area > 0.0 { 1 } else { -1 };
     for k in 0..poly.len() {
@@ -29,7 +29,7 @@ fn edges(poly: &[DVec2], out: &mut Vec<Segment>) {
     }
 }
 
-fn winding(poly: &[DVec2], p: DVec2) -> i32 {
+pub(in crate::analytic) fn winding(poly: &[DVec2], p: DVec2) -> i32 {
     let mut w = 0;
     for k in 0..poly.len() {
         let (a, b) = (poly[k], poly[(k + 1) % poly.len()]);
@@ -81,7 +81,7 @@ fn shoelace(arr: &Arrangement, level: i32) -> f64 {
     area
 }
 
-fn domain(next: &mut impl FnMut() -> f64, clipped: bool) -> Vec<DVec2> {
+pub(in crate::analytic) fn domain(next: &mut impl FnMut() -> f64, clipped: bool) -> Vec<DVec2> {
     let square = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
     if !clipped {
         return square.to_vec();

@@ -67,6 +67,26 @@ impl LightPlane {
         if len > 0.0 { len.atan2(va.dot(vb)) * self.n.dot(c) / len } else { 0.0 }
     }
 
+    /// [`LightPlane::weight`] integrated along the row at `y` from x0 to x1 (light
+    /// coordinates), in closed form: above the horizon (where the rows lie) the weight is
+    /// h (c0 + c1 x) / |u|^4 ((x + b)^2 + k^2)^2, with h the point's height over the
+    /// light's plane and k the row's distance from the point's foot, in u's lengths.
+    pub fn row_integral(&self, y: f64, x0: f64, x1: f64) -> f64 {
+        let a = self.corner + y * self.v;
+        let uu = self.u.length_squared();
+        let h = -self.n_light.dot(a);
+        let b = a.dot(self.u) / uu;
+        let k = (a - b * self.u).length() / uu.sqrt();
+        let (c0, c1) = (self.n.dot(a), self.n.dot(self.u));
+        // c0 + c1 x = gamma + c1 t, t = x + b.
+        let gamma = c0 - c1 * b;
+        let k2 = k * k;
+        let i1 = |t: f64| t / (2.0 * k2 * (t * t + k2)) + (t / k).atan() / (2.0 * k2 * k);
+        let i2 = |t: f64| -1.0 / (2.0 * (t * t + k2));
+        let (t0, t1) = (x0 + b, x1 + b);
+        self.area2 * h / (uu * uu) * (gamma * (i1(t1) - i1(t0)) + c1 * (i2(t1) - i2(t0)))
+    }
+
     /// The part of the light's rectangle above the shading horizon (n . (y - p) >= 0), in
     /// light coordinates, counter-clockwise, without repeated corners: its corners in
     /// `out`, their count returned (under 3: nothing of the light is above).
@@ -204,6 +224,33 @@ mod tests {
             let expected = sub.irradiance_factor_f64(p, n);
             let got = 0.5 * plane.polygon_sum(&part).abs();
             assert!((got - expected).abs() <= 1e-6 * expected, "scale {scale}: {got} {expected}");
+        }
+    }
+
+    /// A row's closed form against a fine midpoint rule of the weight along it, on rows of
+    /// a light the point sees from near and far, and past a tilted normal.
+    #[test]
+    fn row_integral_is_the_weight_along_the_row() {
+        let light = RectLight::new(
+            Vec3::new(0.0, 2.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 0.0, 0.6),
+            Vec3::ONE,
+        );
+        for (p, n) in [
+            (Vec3::new(0.3, 1.0, -0.2), Vec3::new(0.3, 0.9, 0.1).normalize()),
+            (Vec3::new(0.1, 1.97, 0.05), Vec3::Y),
+            (Vec3::new(-3.0, 0.0, 1.0), Vec3::Y),
+        ] {
+            let plane = LightPlane::new(&light, p.as_dvec3(), n.as_dvec3());
+            for (y, x0, x1) in [(0.1, 0.0, 1.0), (0.55, 0.2, 0.3), (0.97, 0.6, 0.99)] {
+                let g = 20000;
+                let step = (x1 - x0) / g as f64;
+                let sum: f64 =
+                    (0..g).map(|i| plane.weight(DVec2::new(x0 + (i as f64 + 0.5) * step, y)) * step).sum();
+                let got = plane.row_integral(y, x0, x1);
+                assert!((got - sum).abs() <= 1e-7 * sum, "{p} row {y} [{x0}, {x1}]: {got} against {sum}");
+            }
         }
     }
 }

@@ -27,6 +27,7 @@ mod entry;
 pub mod lambert;
 mod lit_region;
 mod query;
+mod rows;
 pub mod segment;
 
 use crate::silhouette::Silhouette;
@@ -114,6 +115,8 @@ struct Counters {
     fallback: [AtomicU64; 6],
     alpha_points: AtomicU64,
     alpha_tests: AtomicU64,
+    rows_points: AtomicU64,
+    row_crossings: AtomicU64,
 }
 
 impl Analytic {
@@ -172,6 +175,8 @@ impl LightShadowing for Analytic {
             ("segments_merged", load(&c.merged)),
             ("point_sides_alpha_sampled", load(&c.alpha_points)),
             ("alpha_leaf_tests", load(&c.alpha_tests)),
+            ("point_sides_by_rows", load(&c.rows_points)),
+            ("row_crossings", load(&c.row_crossings)),
             ("points_counted_no_shaft", f(Fallback::NoShaft)),
             ("points_counted_alpha", f(Fallback::Alpha)),
             ("points_counted_costly", f(Fallback::Costly)),

@@ -1,9 +1,10 @@
 //! One point's V, integrated (see the module doc of `analytic`).
 
-use super::alpha::{LeafScratch, Leaves, hidden_by_leaves};
+use super::alpha::{LeafScratch, Leaves, hidden_by_leaves, hidden_on_rows};
 use super::arrangement::{Arrangement, Failure, MAX_DOMAIN, Segment};
 use super::lambert::{LightPlane, clip_polygon};
 use super::lit_region::LitRegion;
+use super::rows::Rows;
 use super::segment::inside_convex;
 use super::{Analytic, Fallback};
 use crate::silhouette_edges::edges::{ALPHA, NEAR_LIGHT};
@@ -31,6 +32,12 @@ const LEAF_STRATA_PER_SAMPLE: u32 = 8;
 /// `traced`'s noise), 1,000 2.3x; on flight-helmet 1.75x at 3,000.
 const MAX_ACTIVE_EDGES: usize = 3000;
 
+/// Rows per point side where the edges are many ([`super::rows`]).
+const ROWS: u32 = 128;
+
+/// Leaf cells along each of those rows, over the part's width.
+const ROW_CELLS: u32 = 128;
+
 /// One thread's working memory, reused by every point.
 #[derive(Default)]
 struct Scratch {
@@ -44,6 +51,7 @@ struct Scratch {
     /// ([`hidden_by_leaves`]).
     lit: LitRegion,
     leaves: LeafScratch,
+    rows: Rows,
 }
 
 thread_local! {
@@ -141,6 +149,9 @@ fn side_lit(
         let s = &mut *cell.borrow_mut();
         gather(plugin, scene, side, &frame, s)?;
         let c = &plugin.counters;
+        if s.edges.active.len() > MAX_ACTIVE_EDGES {
+            return side_by_rows((plugin, scene, seed), plane, side, part, s);
+        }
         let arr = &mut s.arrangement;
         arr.build(part, &s.segments).map_err(|f| match f {
             Failure::Degenerate => Fallback::Degenerate,
@@ -186,13 +197,12 @@ fn side_lit(
                 origin: side.origin,
                 flags,
                 regions: &s.edges.regions,
-                lit: &s.lit,
                 edges: &plugin.counting.occluders().edges,
             };
             let (hidden, tests) = hidden_by_leaves(
                 scene,
                 plane,
-                &leaves,
+                (&leaves, &s.lit),
                 (part, &mut s.leaves),
                 (LEAF_STRATA_PER_SAMPLE * plugin.samples, seed),
             )
@@ -203,6 +213,56 @@ fn side_lit(
         }
         Ok((lit, 0.0))
     })
+}
+
+/// [`side_lit`] by rows, where the arrangement would cost more than counting (many active
+/// edges): the lit sum from the rows' share of the part's exact sum.
+fn side_by_rows(
+    (plugin, scene, seed): (&Analytic, &Scene, u64),
+    plane: &LightPlane,
+    side: &Side,
+    part: &[DVec2],
+    s: &mut Scratch,
+) -> Result<(f64, f64), Fallback> {
+    let light = plugin.light();
+    let flags = &plugin.counting.occluders().edges.flags;
+    let c = &plugin.counters;
+    let share = s.rows.build(part, &s.segments, (ROWS, seed)).map_err(|f| match f {
+        Failure::Degenerate => Fallback::Degenerate,
+        Failure::Inconsistent => Fallback::Inconsistent,
+    })?;
+    c.row_crossings.fetch_add(s.rows.crossings() as u64, Ordering::Relaxed);
+    c.rows_points.fetch_add(1, Ordering::Relaxed);
+    let opaque_at = |t: DVec2| {
+        let target = light.point(t.x as f32, t.y as f32);
+        let ends = (light.point_error(t.x as f32, t.y as f32), light.normal);
+        scene.segment_occluded_from_except(side.origin, target, ends, |slot| flags[slot] != 0)
+            || s.outlines.iter().any(|&(lo, hi)| inside_convex(&s.corners[lo as usize..hi as usize], t))
+    };
+    c.rays.fetch_add(1, Ordering::Relaxed);
+    if opaque_at(share.target) {
+        c.rays.fetch_add(1, Ordering::Relaxed);
+        if share.second.is_some_and(|t2| !opaque_at(t2)) {
+            return Err(Fallback::Inconsistent);
+        }
+        return Ok((0.0, 0.0));
+    }
+    let mut hidden = 0.0;
+    if s.edges.regions.iter().any(|r| flags[r.slot as usize] & ALPHA != 0) {
+        let leaves = Leaves {
+            light,
+            origin: side.origin,
+            flags,
+            regions: &s.edges.regions,
+            edges: &plugin.counting.occluders().edges,
+        };
+        let (h, tests) =
+            hidden_on_rows(scene, (plane, &leaves), (&s.rows, share.min), (ROW_CELLS, seed), &mut s.leaves);
+        hidden = h;
+        c.alpha_points.fetch_add(1, Ordering::Relaxed);
+        c.alpha_tests.fetch_add(tests, Ordering::Relaxed);
+    }
+    Ok((plane.polygon_sum(part) * s.rows.share(plane, share.min, hidden), 0.0))
 }
 
 /// The point's segments into `s.segments`: its active edges (jump = -weight: an edge's
@@ -232,9 +292,6 @@ fn gather(
     let c = &plugin.counters;
     c.edges_active.fetch_add(s.edges.active.len() as u64, Ordering::Relaxed);
     renderer::util::pixel_cost::count_lookups(s.edges.active.len() as u64);
-    if s.edges.active.len() > MAX_ACTIVE_EDGES {
-        return Err(Fallback::Costly);
-    }
     s.segments.clear();
     s.segments.extend(s.edges.active.iter().map(|e| Segment { p0: e.p0, p1: e.p1, jump: -e.weight }));
     s.outlines.clear();

@@ -1,0 +1,324 @@
+//! Line samples for points with many active edges (thousands under a near softbox): the
+//! light's part cut by R rows, jittered one a stratum; on each row the depth is exact (the
+//! sorted crossings of the segments with the row, from the row's left end, whose depth a walk
+//! round the part's boundary gives), and Lambert's weight is integrated over the row's
+//! visible intervals in closed form. Only the rows' positions are sampled: the share is a
+//! ratio of the rows' visible to whole integrals (an umbra is black, a lit point 1), and
+//! its error falls about as R^-1.5, as R^2 stratified points' (the row integral is
+//! continuous in y). The cost is one crossing a segment and row it spans, not one a pair
+//! of segments: the arrangement's crossings and pieces grow with the hidden folds of a
+//! dense mesh, the rows' do not.
+//!
+//! Each row's depth is checked at its right end against the boundary's: a row that does not
+//! close fails the point ([`Failure::Inconsistent`]), as an arrangement's loop would.
+
+use super::lambert::LightPlane;
+use super::segment::{Failure, Segment};
+use glam::DVec2;
+use renderer::util::random::{mix64, stream_seed};
+
+/// Reused memory (one per thread).
+#[derive(Debug, Default)]
+pub(super) struct Rows {
+    /// The rows' y, ascending, and each row's ends on the part's boundary: x, and the
+    /// boundary position (side + fraction along it).
+    ys: Vec<f64>,
+    ends: Vec<[(f64, f64); 2]>,
+    /// Depth changes round the boundary: (position = side + fraction, change), sorted; and
+    /// the running depth after each.
+    walk: Vec<(f64, i32)>,
+    running: Vec<i32>,
+    /// Per row, its crossings (x, depth change) (CSR).
+    starts: Vec<u32>,
+    fill: Vec<u32>,
+    crossings: Vec<(f64, i32)>,
+    /// Every row's intervals between crossings: (row, x0, x1, depth), and where each row's
+    /// begin.
+    intervals: Vec<(u32, f64, f64, i32)>,
+    row_starts: Vec<u32>,
+}
+
+/// A row estimate: the visible rows' integral as a share of the whole rows', the lowest
+/// depth, and a point in the longest interval at it (the ray that settles the constant aims
+/// there), with a second, for a second opinion.
+pub(super) struct RowShare {
+    pub min: i32,
+    pub target: DVec2,
+    pub second: Option<DVec2>,
+}
+
+impl Rows {
+    /// Cuts the convex counter-clockwise `part` by `rows` jittered rows (seeded by `seed`)
+    /// and finds the depth, relative to the boundary's first corner, on every interval of
+    /// every row.
+    pub(super) fn build(
+        &mut self,
+        part: &[DVec2],
+        segments: &[Segment],
+        (rows, seed): (u32, u64),
+    ) -> Result<RowShare, Failure> {
+        self.place_rows(part, rows, seed);
+        self.walk_boundary(part, segments);
+        self.cross_rows(segments);
+        self.walk_rows()
+    }
+
+    /// The rows' y (one jittered in each of `rows` equal strata of the part's height) and
+    /// their ends.
+    fn place_rows(&mut self, part: &[DVec2], rows: u32, seed: u64) {
+        let (lo, hi) =
+            part.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), q| (l.min(q.y), h.max(q.y)));
+        let key = stream_seed(&[seed, 0x0005_0a35]);
+        self.ys.clear();
+        self.ends.clear();
+        for j in 0..rows as u64 {
+            let u = (mix64(key ^ j.wrapping_mul(0x9e37_79b9_7f4a_7c15)) >> 11) as f64 / (1u64 << 53) as f64;
+            let y = lo + (hi - lo) * (j as f64 + u) / rows as f64;
+            let (mut left, mut right) = ((f64::INFINITY, 0.0), (f64::NEG_INFINITY, 0.0));
+            for k in 0..part.len() {
+                let (a, b) = (part[k], part[(k + 1) % part.len()]);
+                if (a.y <= y) != (b.y <= y) {
+                    let t = (y - a.y) / (b.y - a.y);
+                    let end = (a.x + t * (b.x - a.x), k as f64 + t.min(1.0 - f64::EPSILON));
+                    if end.0 < left.0 {
+                        left = end;
+                    }
+                    if end.0 > right.0 {
+                        right = end;
+                    }
+                }
+            }
+            if left.0 < right.0 {
+                self.ys.push(y);
+                self.ends.push([left, right]);
+            }
+        }
+    }
+
+    /// The depth changes met walking counter-clockwise round the part's boundary from its
+    /// first corner: crossing a segment from its right to its left raises D by its jump.
+    fn walk_boundary(&mut self, part: &[DVec2], segments: &[Segment]) {
+        self.walk.clear();
+        let n = part.len();
+        for (k, side) in (0..n).map(|k| (k, (part[k], part[(k + 1) % n]))) {
+            let d = side.1 - side.0;
+            for s in segments {
+                let e = s.p1 - s.p0;
+                let denom = e.perp_dot(d);
+                if denom == 0.0 {
+                    continue;
+                }
+                let r = side.0 - s.p0;
+                let (u, t) = (r.perp_dot(d) / denom, r.perp_dot(e) / denom);
+                // Half-open along both: an end shared by two segments, or a corner shared
+                // by two sides, is met once.
+                if (0.0..1.0).contains(&u) && (0.0..1.0).contains(&t) {
+                    self.walk.push((k as f64 + t, if denom > 0.0 { s.jump } else { -s.jump }));
+                }
+            }
+        }
+        self.walk.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        self.running.clear();
+        let mut d = 0;
+        for &(_, change) in &self.walk {
+            d += change;
+            self.running.push(d);
+        }
+    }
+
+    /// D (relative) at boundary position `at` (side + fraction).
+    fn boundary_depth(&self, at: f64) -> i32 {
+        let before = self.walk.partition_point(|e| e.0 < at);
+        if before == 0 { 0 } else { self.running[before - 1] }
+    }
+
+    /// Every segment's crossings with the rows it spans (half-open in y), into each row's
+    /// list, sorted along it.
+    fn cross_rows(&mut self, segments: &[Segment]) {
+        let rows = self.ys.len();
+        let span = |s: &Segment, ys: &[f64]| {
+            let (y0, y1) = (s.p0.y.min(s.p1.y), s.p0.y.max(s.p1.y));
+            ys.partition_point(|&y| y < y0)..ys.partition_point(|&y| y < y1)
+        };
+        self.starts.clear();
+        self.starts.resize(rows + 1, 0);
+        for s in segments {
+            for j in span(s, &self.ys) {
+                self.starts[j + 1] += 1;
+            }
+        }
+        for j in 0..rows {
+            self.starts[j + 1] += self.starts[j];
+        }
+        self.fill.clear();
+        self.fill.extend_from_slice(&self.starts[..rows]);
+        self.crossings.clear();
+        self.crossings.resize(self.starts[rows] as usize, (0.0, 0));
+        for s in segments {
+            let e = s.p1 - s.p0;
+            // Crossing a segment going +x: from its right to its left where it points down.
+            let change = if e.y < 0.0 { s.jump } else { -s.jump };
+            for j in span(s, &self.ys) {
+                let x = s.p0.x + (self.ys[j] - s.p0.y) * e.x / e.y;
+                self.crossings[self.fill[j] as usize] = (x, change);
+                self.fill[j] += 1;
+            }
+        }
+        for j in 0..rows {
+            let (a, b) = (self.starts[j] as usize, self.starts[j + 1] as usize);
+            self.crossings[a..b].sort_unstable_by(|p, q| p.0.total_cmp(&q.0));
+        }
+    }
+
+    /// The depth along every row from its left end, the row's check at its right end, and
+    /// the lowest depth with the points to aim at.
+    fn walk_rows(&mut self) -> Result<RowShare, Failure> {
+        self.intervals.clear();
+        self.row_starts.clear();
+        for j in 0..self.ys.len() {
+            self.row_starts.push(self.intervals.len() as u32);
+            let [(x0, at0), (x1, at1)] = self.ends[j];
+            let mut d = self.boundary_depth(at0);
+            let mut from = x0;
+            let (a, b) = (self.starts[j] as usize, self.starts[j + 1] as usize);
+            for &(x, change) in &self.crossings[a..b] {
+                if x <= x0 || x >= x1 {
+                    continue;
+                }
+                if x > from {
+                    self.intervals.push((j as u32, from, x, d));
+                }
+                from = x;
+                d += change;
+            }
+            self.intervals.push((j as u32, from, x1, d));
+            if d != self.boundary_depth(at1) {
+                return Err(Failure::Inconsistent);
+            }
+        }
+        self.row_starts.push(self.intervals.len() as u32);
+        let min = self.intervals.iter().map(|i| i.3).min().ok_or(Failure::Degenerate)?;
+        // Aim at the middles of the two longest intervals at the lowest depth.
+        let (mut first, mut second) = (None::<(f64, DVec2)>, None::<(f64, DVec2)>);
+        for &(j, a, b, _) in self.intervals.iter().filter(|i| i.3 == min) {
+            let cand = (b - a, DVec2::new(0.5 * (a + b), self.ys[j as usize]));
+            if first.is_none_or(|f| cand.0 > f.0) {
+                second = first;
+                first = Some(cand);
+            } else if second.is_none_or(|s| cand.0 > s.0) {
+                second = Some(cand);
+            }
+        }
+        let target = first.ok_or(Failure::Degenerate)?.1;
+        Ok(RowShare { min, target, second: second.map(|s| s.1) })
+    }
+
+    /// The share of the rows' weight on intervals at depth `level`, less `hidden` (what
+    /// leaves take from them, in the rows' units): sum over the rows of Lambert's weight
+    /// integrated along their intervals at `level`, over its integral along the whole rows.
+    pub(super) fn share(&self, plane: &LightPlane, level: i32, hidden: f64) -> f64 {
+        let (mut seen, mut whole) = (-hidden, 0.0);
+        for (j, &y) in self.ys.iter().enumerate() {
+            let [(x0, _), (x1, _)] = self.ends[j];
+            whole += plane.row_integral(y, x0, x1);
+        }
+        for &(j, a, b, d) in &self.intervals {
+            if d == level {
+                seen += plane.row_integral(self.ys[j as usize], a, b);
+            }
+        }
+        if whole > 0.0 { (seen / whole).clamp(0.0, 1.0) } else { 0.0 }
+    }
+
+    /// The rows: their y and ends.
+    pub(super) fn rows(&self) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+        self.ys.iter().zip(&self.ends).map(|(&y, &[(x0, _), (x1, _)])| (y, x0, x1))
+    }
+
+    /// Whether x on row `j` lies on an interval at depth `level`.
+    pub(super) fn at_level(&self, j: usize, level: i32, x: f64) -> bool {
+        let row = &self.intervals[self.row_starts[j] as usize..self.row_starts[j + 1] as usize];
+        let k = row.partition_point(|i| i.2 <= x);
+        k < row.len() && row[k].1 < x && row[k].3 == level
+    }
+
+    /// How many crossings of segments with rows the estimate used (a counter).
+    pub(super) fn crossings(&self) -> usize {
+        self.crossings.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analytic::arrangement::tests::{domain, edges, polygon, winding};
+    use crate::silhouette_edges::uniform;
+
+    /// Every interval of every row has the brute-force winding depth (relative to the
+    /// part's first corner), and every row closes, over random overlapping polygons in
+    /// squares and horizon-clipped squares.
+    #[test]
+    fn row_intervals_have_the_winding_depth() {
+        let mut next = uniform(0x0005_0a35_1234_5678);
+        let mut rows = Rows::default();
+        let mut checked = 0;
+        for round in 0..300 {
+            let polys: Vec<Vec<DVec2>> = (0..1 + round % 7).map(|_| polygon(&mut next)).collect();
+            let mut segs = Vec::new();
+            for p in &polys {
+                edges(p, &mut segs);
+            }
+            let part = domain(&mut next, round % 2 == 0);
+            // Each polygon adds 1 inside, either way round (as `edges` gives its jumps).
+            let depth = |q: DVec2| polys.iter().map(|p| winding(p, q).abs()).sum::<i32>();
+            let reference = depth(part[0]);
+            let share = rows.build(&part, &segs, (40, round as u64)).expect("general position");
+            assert_eq!(share.min, rows.intervals.iter().map(|i| i.3).min().unwrap());
+            for &(j, a, b, d) in &rows.intervals {
+                let q = DVec2::new(0.5 * (a + b), rows.ys[j as usize]);
+                assert_eq!(d, depth(q) - reference, "round {round}: row {j} [{a}, {b}]");
+                checked += 1;
+            }
+        }
+        assert!(checked > 10_000, "{checked} intervals");
+    }
+
+    /// The rows' share of the lowest level against the arrangement's exact one, on the same
+    /// random polygons seen from a point under a near light: within 3e-3 at 128 rows on
+    /// every case, and unbiased on average.
+    #[test]
+    fn row_share_is_near_the_exact_share() {
+        use crate::analytic::arrangement::Arrangement;
+        use glam::Vec3;
+        use renderer::RectLight;
+        let light = RectLight::new(Vec3::new(0.0, 1.0, 0.0), Vec3::X, Vec3::Z, Vec3::ONE);
+        let plane = LightPlane::new(&light, glam::DVec3::new(0.2, 0.0, 0.1), glam::DVec3::Y);
+        let mut next = uniform(0x0005_0a35_8765_4321);
+        let (mut rows, mut arr) = (Rows::default(), Arrangement::default());
+        let (mut worst, mut sum, mut n) = (0.0f64, 0.0, 0);
+        for round in 0..200 {
+            let polys: Vec<Vec<DVec2>> = (0..1 + round % 5).map(|_| polygon(&mut next)).collect();
+            let mut segs = Vec::new();
+            for p in &polys {
+                edges(p, &mut segs);
+            }
+            let part = domain(&mut next, false);
+            arr.build(&part, &segs).expect("general position");
+            let mut lit = 0.0;
+            arr.boundary_of(arr.min_rel, |a, b| lit += plane.edge_term(a, b));
+            let exact = lit / plane.polygon_sum(&part);
+            let share = rows.build(&part, &segs, (128, round as u64)).expect("general position");
+            if share.min != arr.min_rel {
+                continue; // the rows missed the lowest level (a sliver): V there is ~0 either way
+            }
+            let got = rows.share(&plane, share.min, 0.0);
+            worst = worst.max((got - exact).abs());
+            sum += got - exact;
+            n += 1;
+        }
+        eprintln!("{n} cases: worst {worst:.2e}, mean difference {:.2e}", sum / n as f64);
+        assert!(n > 150, "{n} cases compared");
+        assert!(worst < 3e-3, "worst {worst}");
+        assert!((sum / n as f64).abs() < 3e-4, "mean difference {}", sum / n as f64);
+    }
+}
