@@ -25,18 +25,20 @@ use std::sync::atomic::Ordering;
 /// cost, 16 gives 2.5e-4 at 4.3x; 16 without refining gave 5.1e-4.
 const LEAF_STRATA_PER_SAMPLE: u32 = 8;
 
-/// A safety net: a side with more active edges than this is counted instead. The arrangement
-/// costs about 1 us per active edge with ~1 crossing each, `traced` 0.25-1.3 ms a point at
-/// N = 1024. Measured on flight-helmet under the softbox (320x240, side by side with
-/// `traced`): no cap 12.8x, 3,000 2.8x (penumbra RMSE 2.7e-3: the counted points carry
-/// `traced`'s noise), 1,000 2.3x; on flight-helmet 1.75x at 3,000.
+/// A side with more active edges than this is integrated by rows ([`super::rows`]) instead of
+/// the arrangement, whose crossings and pieces grow with a dense mesh's hidden folds (about
+/// 1 us an active edge; `traced` costs 0.25-1.3 ms a point at N = 1024). Measured on
+/// flight-helmet under the softbox (320x240, side by side with `traced`): the arrangement
+/// everywhere 12.8x; counting past 3,000 edges 2.8x at penumbra RMSE 2.7e-3.
 const MAX_ACTIVE_EDGES: usize = 3000;
 
-/// Rows per point side where the edges are many ([`super::rows`]).
-const ROWS: u32 = 128;
+/// Rows per point side where the edges are many. On the softbox (160x120, against `traced`
+/// at N = 65,536, whose own noise is ~1.4e-4): 128 rows 2.9e-4 penumbra RMSE, 256 rows
+/// 1.7e-4 (under `traced`'s at N = 65,536) for 8% more time.
+const ROWS: u32 = 256;
 
-/// Leaf cells along each of those rows, over the part's width.
-const ROW_CELLS: u32 = 128;
+/// Leaf cells along each of those rows, over the part's width (as many as rows).
+const ROW_CELLS: u32 = 256;
 
 /// One thread's working memory, reused by every point.
 #[derive(Default)]
