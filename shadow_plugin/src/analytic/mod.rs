@@ -17,9 +17,11 @@
 //! projections alone ([`alpha`]). Where a point has thousands of active edges (a dense mesh
 //! under a near softbox) the arrangement gives way to rows ([`rows`]): 256 line samples, each
 //! exact along its length, so only the rows' places are sampled (noise about that of
-//! `traced` at N = 65,536). Points the arrangement does not answer exactly (degenerate
-//! contacts, an unclosed loop, a certificate failed, no shaft) are answered by `silhouette`'s
-//! counting at `[shadows].samples`, and counted in the run report by reason.
+//! `traced` at N = 65,536); so do the points whose arrangement fails (near-coincident
+//! crossings, a lone end). Points neither answers (a row that does not close, a ray that
+//! contradicts the depths, a certificate failed, no shaft) are answered by `silhouette`'s
+//! counting at `[shadows].samples`, and counted in the run report by reason. `points_exact`
+//! counts the points integrated without rows.
 //!
 //! Scene file: `method = "analytic"`; `[shadows.analytic]` takes no keys.
 
@@ -118,6 +120,7 @@ struct Counters {
     alpha_tests: AtomicU64,
     rows_points: AtomicU64,
     row_crossings: AtomicU64,
+    arrangement_failed: AtomicU64,
 }
 
 impl Analytic {
@@ -178,6 +181,7 @@ impl LightShadowing for Analytic {
             ("alpha_leaf_tests", load(&c.alpha_tests)),
             ("point_sides_by_rows", load(&c.rows_points)),
             ("row_crossings", load(&c.row_crossings)),
+            ("point_sides_arrangement_failed", load(&c.arrangement_failed)),
             ("points_counted_no_shaft", f(Fallback::NoShaft)),
             ("points_counted_alpha", f(Fallback::Alpha)),
             ("points_counted_degenerate", f(Fallback::Degenerate)),
