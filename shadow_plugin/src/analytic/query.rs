@@ -8,7 +8,7 @@ use super::rows::Rows;
 use super::segment::inside_convex;
 use super::{Analytic, Fallback};
 use crate::silhouette_edges::edges::{ALPHA, NEAR_LIGHT};
-use crate::silhouette_edges::projection::{Frame, clip, exact_orient_sign};
+use crate::silhouette_edges::projection::{Frame, Region, clip, exact_orient_sign};
 use crate::silhouette_edges::{EdgeScratch, GatherRefusal};
 use glam::{DVec2, Vec3};
 use renderer::geometry::point::ShadingPoint;
@@ -176,25 +176,8 @@ fn side_lit(
         let (crossings, pieces) = arr.sizes();
         c.crossings.fetch_add(crossings as u64, Ordering::Relaxed);
         c.pieces.fetch_add(pieces as u64, Ordering::Relaxed);
-        // The constant: D at a point of the lowest face, by one ray through the counted
-        // triangles (the flagged ones left out, as `silhouette` aims it) plus the outlines
-        // holding the point.
-        c.rays.fetch_add(1, Ordering::Relaxed);
-        let t = arr.target;
         let flags = &plugin.counting.occluders().edges.flags;
-        let opaque_at = |t: DVec2| {
-            let target = light.point(t.x as f32, t.y as f32);
-            let ends = (light.point_error(t.x as f32, t.y as f32), light.normal);
-            scene.segment_occluded_from_except(side.origin, target, ends, |slot| flags[slot] != 0)
-                || s.outlines.iter().any(|&(lo, hi)| inside_convex(&s.corners[lo as usize..hi as usize], t))
-        };
-        if opaque_at(t) {
-            // Umbra, unless a second point of the lowest depth is seen: then the counts and
-            // the rays disagree (a test soup's T-junctions did), and the point is counted.
-            c.rays.fetch_add(1, Ordering::Relaxed);
-            if arr.second.is_some_and(|t2| !opaque_at(t2)) {
-                return Err(Fallback::Inconsistent);
-            }
+        if lowest_is_hidden((plugin, scene), side, (&s.outlines, &s.corners), (arr.target, arr.second))? {
             return Ok(SideSums { lit: 0.0, leaves: 0.0, by_rows: false });
         }
         let mut lit = 0.0;
@@ -208,13 +191,7 @@ fn side_lit(
         });
         if has_leaves {
             s.lit.finish();
-            let leaves = Leaves {
-                light,
-                origin: side.origin,
-                flags,
-                regions: &s.edges.regions,
-                edges: &plugin.counting.occluders().edges,
-            };
+            let leaves = leaves_of(plugin, side, &s.edges.regions);
             let (hidden, tests) = hidden_by_leaves(
                 scene,
                 plane,
@@ -231,8 +208,8 @@ fn side_lit(
     })
 }
 
-/// [`side_lit`] by rows, where the arrangement would cost more than counting (many active
-/// edges): the lit sum from the rows' share of the part's exact sum.
+/// [`side_lit`] by rows, where the arrangement would cost too much (many active edges) or
+/// fails: the lit sum from the rows' share of the part's exact sum.
 fn side_by_rows(
     (plugin, scene, seed): (&Analytic, &Scene, u64),
     plane: &LightPlane,
@@ -240,7 +217,6 @@ fn side_by_rows(
     part: &[DVec2],
     s: &mut Scratch,
 ) -> Result<SideSums, Fallback> {
-    let light = plugin.light();
     let flags = &plugin.counting.occluders().edges.flags;
     let c = &plugin.counters;
     let share = s.rows.build(part, &s.segments, (ROWS, seed)).map_err(|f| match f {
@@ -249,29 +225,12 @@ fn side_by_rows(
     })?;
     c.row_crossings.fetch_add(s.rows.crossings() as u64, Ordering::Relaxed);
     c.rows_points.fetch_add(1, Ordering::Relaxed);
-    let opaque_at = |t: DVec2| {
-        let target = light.point(t.x as f32, t.y as f32);
-        let ends = (light.point_error(t.x as f32, t.y as f32), light.normal);
-        scene.segment_occluded_from_except(side.origin, target, ends, |slot| flags[slot] != 0)
-            || s.outlines.iter().any(|&(lo, hi)| inside_convex(&s.corners[lo as usize..hi as usize], t))
-    };
-    c.rays.fetch_add(1, Ordering::Relaxed);
-    if opaque_at(share.target) {
-        c.rays.fetch_add(1, Ordering::Relaxed);
-        if share.second.is_some_and(|t2| !opaque_at(t2)) {
-            return Err(Fallback::Inconsistent);
-        }
+    if lowest_is_hidden((plugin, scene), side, (&s.outlines, &s.corners), (share.target, share.second))? {
         return Ok(SideSums { lit: 0.0, leaves: 0.0, by_rows: true });
     }
     let mut hidden = 0.0;
     if s.edges.regions.iter().any(|r| flags[r.slot as usize] & ALPHA != 0) {
-        let leaves = Leaves {
-            light,
-            origin: side.origin,
-            flags,
-            regions: &s.edges.regions,
-            edges: &plugin.counting.occluders().edges,
-        };
+        let leaves = leaves_of(plugin, side, &s.edges.regions);
         let (h, tests) =
             hidden_on_rows(scene, (plane, &leaves), (&s.rows, share.min), (ROW_CELLS, seed), &mut s.leaves);
         hidden = h;
@@ -283,6 +242,43 @@ fn side_by_rows(
         leaves: 0.0,
         by_rows: true,
     })
+}
+
+/// The constant: whether the lowest depth is not 0, by one ray to `target` (a point of the
+/// lowest level) through the counted triangles (the flagged ones left out, as `silhouette`
+/// aims it) plus the outlines holding it. Blocked: umbra, unless a `second` point of that
+/// level is seen; then the counts and the rays disagree (a test soup's T-junctions did), and
+/// the point is counted.
+fn lowest_is_hidden(
+    (plugin, scene): (&Analytic, &Scene),
+    side: &Side,
+    (outlines, corners): (&[(u32, u32)], &[DVec2]),
+    (target, second): (DVec2, Option<DVec2>),
+) -> Result<bool, Fallback> {
+    let light = plugin.light();
+    let flags = &plugin.counting.occluders().edges.flags;
+    let opaque_at = |t: DVec2| {
+        let target = light.point(t.x as f32, t.y as f32);
+        let ends = (light.point_error(t.x as f32, t.y as f32), light.normal);
+        scene.segment_occluded_from_except(side.origin, target, ends, |slot| flags[slot] != 0)
+            || outlines.iter().any(|&(lo, hi)| inside_convex(&corners[lo as usize..hi as usize], t))
+    };
+    let rays = &plugin.counters.rays;
+    rays.fetch_add(1, Ordering::Relaxed);
+    if !opaque_at(target) {
+        return Ok(false);
+    }
+    rays.fetch_add(1, Ordering::Relaxed);
+    if second.is_some_and(|t2| !opaque_at(t2)) {
+        return Err(Fallback::Inconsistent);
+    }
+    Ok(true)
+}
+
+/// What the leaves' estimates need of one side.
+fn leaves_of<'a>(plugin: &'a Analytic, side: &Side, regions: &'a [Region]) -> Leaves<'a> {
+    let edges = &plugin.counting.occluders().edges;
+    Leaves { light: plugin.light(), origin: side.origin, flags: &edges.flags, regions, edges }
 }
 
 /// The point's segments into `s.segments`: its active edges (jump = -weight: an edge's
