@@ -24,6 +24,10 @@ pub(super) struct Rows {
     /// boundary position (side + fraction along it).
     ys: Vec<f64>,
     ends: Vec<[(f64, f64); 2]>,
+    /// The strata: the part's lowest y, height per row, and the first kept row's stratum.
+    strata: (f64, f64, usize),
+    /// Each segment's rows (half-open in y): the first and one past the last.
+    spans: Vec<(u32, u32)>,
     /// Depth changes round the boundary: (position = side + fraction, change), sorted; and
     /// the running depth after each.
     walk: Vec<(f64, i32)>,
@@ -32,8 +36,8 @@ pub(super) struct Rows {
     starts: Vec<u32>,
     fill: Vec<u32>,
     crossings: Vec<(f64, i32)>,
-    /// Every row's intervals between crossings: (row, x0, x1, depth), and where each row's
-    /// begin.
+    /// Every row's intervals at its lowest depth: (row, x0, x1, depth), and where each
+    /// row's begin. (Only the lowest level is lit; the rest need no memory.)
     intervals: Vec<(u32, f64, f64, i32)>,
     row_starts: Vec<u32>,
 }
@@ -71,6 +75,7 @@ impl Rows {
         let key = stream_seed(&[seed, 0x0005_0a35]);
         self.ys.clear();
         self.ends.clear();
+        self.strata = (lo, (hi - lo) / rows as f64, 0);
         for j in 0..rows as u64 {
             let u = (mix64(key ^ j.wrapping_mul(0x9e37_79b9_7f4a_7c15)) >> 11) as f64 / (1u64 << 53) as f64;
             let y = lo + (hi - lo) * (j as f64 + u) / rows as f64;
@@ -89,6 +94,9 @@ impl Rows {
                 }
             }
             if left.0 < right.0 {
+                if self.ys.is_empty() {
+                    self.strata.2 = j as usize;
+                }
                 self.ys.push(y);
                 self.ends.push([left, right]);
             }
@@ -132,20 +140,38 @@ impl Rows {
         if before == 0 { 0 } else { self.running[before - 1] }
     }
 
+    /// The first row at or above `y`: `partition_point(|r| r < y)` over the rows, from the
+    /// stratum `y` falls in (a binary search per end was a tenth of the softbox's time).
+    fn first_row_from(&self, y: f64) -> usize {
+        let (lo, height, first) = self.strata;
+        let n = self.ys.len();
+        // The stratum (a saturating cast: no libm floor; NaN and the infinities land in
+        // range); the walks below settle the exact row.
+        let stratum = ((y - lo) / height).max(0.0) as usize;
+        let mut j = stratum.saturating_sub(first).min(n);
+        while j > 0 && self.ys[j - 1] >= y {
+            j -= 1;
+        }
+        while j < n && self.ys[j] < y {
+            j += 1;
+        }
+        j
+    }
+
     /// Every segment's crossings with the rows it spans (half-open in y), into each row's
     /// list, sorted along it.
     fn cross_rows(&mut self, segments: &[Segment]) {
         let rows = self.ys.len();
-        let span = |s: &Segment, ys: &[f64]| {
-            let (y0, y1) = (s.p0.y.min(s.p1.y), s.p0.y.max(s.p1.y));
-            ys.partition_point(|&y| y < y0)..ys.partition_point(|&y| y < y1)
-        };
+        self.spans.clear();
         self.starts.clear();
         self.starts.resize(rows + 1, 0);
         for s in segments {
-            for j in span(s, &self.ys) {
-                self.starts[j + 1] += 1;
+            let (y0, y1) = (s.p0.y.min(s.p1.y), s.p0.y.max(s.p1.y));
+            let span = (self.first_row_from(y0) as u32, self.first_row_from(y1) as u32);
+            for j in span.0..span.1 {
+                self.starts[j as usize + 1] += 1;
             }
+            self.spans.push(span);
         }
         for j in 0..rows {
             self.starts[j + 1] += self.starts[j];
@@ -154,11 +180,11 @@ impl Rows {
         self.fill.extend_from_slice(&self.starts[..rows]);
         self.crossings.clear();
         self.crossings.resize(self.starts[rows] as usize, (0.0, 0));
-        for s in segments {
+        for (s, &(first, end)) in segments.iter().zip(&self.spans) {
             let e = s.p1 - s.p0;
             // Crossing a segment going +x: from its right to its left where it points down.
             let change = if e.y < 0.0 { s.jump } else { -s.jump };
-            for j in span(s, &self.ys) {
+            for j in first as usize..end as usize {
                 let x = s.p0.x + (self.ys[j] - s.p0.y) * e.x / e.y;
                 self.crossings[self.fill[j] as usize] = (x, change);
                 self.fill[j] += 1;
@@ -180,18 +206,29 @@ impl Rows {
             let [(x0, at0), (x1, at1)] = self.ends[j];
             let mut d = self.boundary_depth(at0);
             let mut from = x0;
+            // The row's lowest depth so far, whose intervals alone are kept.
+            let (row_start, mut lowest) = (self.intervals.len(), i32::MAX);
+            let mut keep = |intervals: &mut Vec<_>, interval: (u32, f64, f64, i32)| {
+                if interval.3 < lowest {
+                    lowest = interval.3;
+                    intervals.truncate(row_start);
+                }
+                if interval.3 == lowest {
+                    intervals.push(interval);
+                }
+            };
             let (a, b) = (self.starts[j] as usize, self.starts[j + 1] as usize);
             for &(x, change) in &self.crossings[a..b] {
                 if x <= x0 || x >= x1 {
                     continue;
                 }
                 if x > from {
-                    self.intervals.push((j as u32, from, x, d));
+                    keep(&mut self.intervals, (j as u32, from, x, d));
                 }
                 from = x;
                 d += change;
             }
-            self.intervals.push((j as u32, from, x1, d));
+            keep(&mut self.intervals, (j as u32, from, x1, d));
             if d != self.boundary_depth(at1) {
                 return Err(Failure::Inconsistent);
             }
@@ -254,8 +291,8 @@ mod tests {
     use crate::analytic::arrangement::tests::{domain, edges, polygon, winding};
     use crate::silhouette_edges::uniform;
 
-    /// Every interval of every row has the brute-force winding depth (relative to the
-    /// part's first corner), and every row closes, over random overlapping polygons in
+    /// Every kept interval of every row has the brute-force winding depth (relative to the
+    /// part's first corner), the rest of the row lies deeper, and every row closes, over random overlapping polygons in
     /// squares and horizon-clipped squares.
     #[test]
     fn row_intervals_have_the_winding_depth() {
@@ -279,8 +316,21 @@ mod tests {
                 assert_eq!(d, depth(q) - reference, "round {round}: row {j} [{a}, {b}]");
                 checked += 1;
             }
+            // Off its kept intervals, a row lies deeper than their level.
+            for (j, (y, x0, x1)) in rows.rows().enumerate() {
+                let kept = &rows.intervals[rows.row_starts[j] as usize..rows.row_starts[j + 1] as usize];
+                let level = kept.first().expect("every row keeps its lowest intervals").3;
+                for k in 0..40 {
+                    let x = x0 + (x1 - x0) * (k as f64 + next()) / 40.0;
+                    if !kept.iter().any(|i| i.1 <= x && x <= i.2) {
+                        let d = depth(DVec2::new(x, y)) - reference;
+                        assert!(d > level, "round {round}: row {j} at {x}: {d} not over {level}");
+                        checked += 1;
+                    }
+                }
+            }
         }
-        assert!(checked > 10_000, "{checked} intervals");
+        assert!(checked > 10_000, "{checked} intervals and samples");
     }
 
     /// The rows' share of the lowest level against the arrangement's exact one, on the same

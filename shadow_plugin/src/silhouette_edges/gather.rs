@@ -84,38 +84,33 @@ impl EdgeScratch {
         }
     }
 
-    /// The candidates active for this point (weight != 0 and over the light), and the
-    /// excluded triangles' regions.
+    /// The candidates active for this point (weight != 0 and over the light), with the
+    /// bands the counting needs, and the excluded triangles' regions.
     pub(crate) fn activate(&mut self, occluders: &OccluderEdges, frame: &Frame) {
         self.active.clear();
+        let active = &mut self.active;
+        for_each_weighed(&self.candidates, occluders, frame, |e0, e1, n, weight| {
+            push(active, frame, e0, e1, n, weight)
+        });
+        self.find_regions(occluders, frame);
+    }
+
+    /// The candidates with weight != 0 for this point, as `(e0, e1, n, weight)`, without the
+    /// counting's bands (`analytic` needs only the projection: the bands were a third of its
+    /// activation), and the excluded triangles' regions.
+    pub(crate) fn weigh(
+        &mut self,
+        occluders: &OccluderEdges,
+        frame: &Frame,
+        emit: impl FnMut(DVec3, DVec3, DVec3, i32),
+    ) {
+        for_each_weighed(&self.candidates, occluders, frame, emit);
+        self.find_regions(occluders, frame);
+    }
+
+    /// The excluded triangles' projections over the light, grown by their bands.
+    fn find_regions(&mut self, occluders: &OccluderEdges, frame: &Frame) {
         let set = &occluders.edges;
-        let vertex = |i: u32| set.vertices[i as usize].as_dvec3();
-        for c in &self.candidates {
-            let (e0, e1) = (c.a.as_dvec3(), c.b.as_dvec3());
-            let (d0, d1) = (e0 - frame.o, e1 - frame.o);
-            let n = d0.cross(d1);
-            let mut weight = c.weight as i32;
-            if c.weight == VARIES {
-                let n_abs = DVec3::new(
-                    (d0.y * d1.z).abs() + (d0.z * d1.y).abs(),
-                    (d0.z * d1.x).abs() + (d0.x * d1.z).abs(),
-                    (d0.x * d1.y).abs() + (d0.y * d1.x).abs(),
-                );
-                let face = |c: DVec3| {
-                    orient_sign(n, n_abs, c, frame.o).unwrap_or_else(|| exact_orient_sign(frame.o, e0, e1, c))
-                };
-                weight = c.thirds[..c.faces as usize].iter().map(|t| face(t.as_dvec3())).sum();
-                if c.faces == 0 {
-                    // More than two faces: read from the set.
-                    let edge = set.edges[c.edge as usize];
-                    let thirds = &set.thirds[edge.first as usize..(edge.first + edge.count) as usize];
-                    weight = thirds.iter().map(|&t| face(vertex(t))).sum();
-                }
-            }
-            if weight != 0 {
-                push(&mut self.active, frame, e0, e1, n, weight);
-            }
-        }
         self.regions.clear();
         for &slot in &self.excluded {
             if let Some(mut region) = Region::new(frame, set.triangle(slot)) {
@@ -123,6 +118,44 @@ impl EdgeScratch {
                 region.alpha_only = set.flags[slot as usize] == ALPHA;
                 self.regions.push(region);
             }
+        }
+    }
+}
+
+/// Calls `emit(e0, e1, n, weight)` for every candidate whose weight seen from `frame.o` is
+/// not 0 (`n` = (e0 - o) x (e1 - o)).
+fn for_each_weighed(
+    candidates: &[Candidate],
+    occluders: &OccluderEdges,
+    frame: &Frame,
+    mut emit: impl FnMut(DVec3, DVec3, DVec3, i32),
+) {
+    let set = &occluders.edges;
+    let vertex = |i: u32| set.vertices[i as usize].as_dvec3();
+    for c in candidates {
+        let (e0, e1) = (c.a.as_dvec3(), c.b.as_dvec3());
+        let (d0, d1) = (e0 - frame.o, e1 - frame.o);
+        let n = d0.cross(d1);
+        let mut weight = c.weight as i32;
+        if c.weight == VARIES {
+            let n_abs = DVec3::new(
+                (d0.y * d1.z).abs() + (d0.z * d1.y).abs(),
+                (d0.z * d1.x).abs() + (d0.x * d1.z).abs(),
+                (d0.x * d1.y).abs() + (d0.y * d1.x).abs(),
+            );
+            let face = |c: DVec3| {
+                orient_sign(n, n_abs, c, frame.o).unwrap_or_else(|| exact_orient_sign(frame.o, e0, e1, c))
+            };
+            weight = c.thirds[..c.faces as usize].iter().map(|t| face(t.as_dvec3())).sum();
+            if c.faces == 0 {
+                // More than two faces: read from the set.
+                let edge = set.edges[c.edge as usize];
+                let thirds = &set.thirds[edge.first as usize..(edge.first + edge.count) as usize];
+                weight = thirds.iter().map(|&t| face(vertex(t))).sum();
+            }
+        }
+        if weight != 0 {
+            emit(e0, e1, n, weight);
         }
     }
 }

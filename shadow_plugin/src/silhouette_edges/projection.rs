@@ -345,14 +345,28 @@ pub(crate) fn clip(frame: &Frame, e0: DVec3, e1: DVec3) -> Option<(DVec2, DVec2)
     Some((at(t0)?, at(t1)?))
 }
 
+/// The side of light coordinates (a, b) of the plane through o and an edge (`n` its
+/// normal): s0 + a sa + b sb.
+fn side_coefficients(frame: &Frame, n: DVec3) -> (f64, f64, f64) {
+    let sa = n.dot(frame.u);
+    let sb = n.dot(frame.v);
+    (n.dot(frame.centre - frame.o) - 0.5 * (sa + sb), sa, sb)
+}
+
+/// Whether the plane through o and an edge (`n` its normal) cuts the light's plane in a line
+/// ([`push`] drops the edges whose plane does not).
+pub(crate) fn has_side(frame: &Frame, n: DVec3) -> bool {
+    let (s0, sa, sb) = side_coefficients(frame, n);
+    let scale = s0.abs().max(sa.abs()).max(sb.abs());
+    scale > 0.0 && scale.is_finite()
+}
+
 /// Adds edge (e0, e1) (`n` = (e0 - o) x (e1 - o)) to `active` if its projection meets the
 /// grown light.
 pub(crate) fn push(active: &mut Vec<ActiveEdge>, frame: &Frame, e0: DVec3, e1: DVec3, n: DVec3, weight: i32) {
     {
         let Some((p0, p1)) = clip(frame, e0, e1) else { return };
-        let sa = n.dot(frame.u);
-        let sb = n.dot(frame.v);
-        let s0 = n.dot(frame.centre - frame.o) - 0.5 * (sa + sb);
+        let (s0, sa, sb) = side_coefficients(frame, n);
         // side(s) = n . (s - o). `traced` aims its ray at s with the rounding of s and of
         // the f32 unit direction (ulps of the light's coordinates, or of the ray's length):
         // the side moves by |n| times that, taken 4 times over. Its test then moves the
