@@ -165,6 +165,10 @@ fn settle(
 #[derive(Default)]
 pub(super) struct LeafScratch {
     maps: Vec<(usize, LeafMap)>,
+    /// Per row, where its maps' positions in `on_row` begin (rows' estimates).
+    row_maps: Vec<u32>,
+    fill: Vec<u32>,
+    on_row: Vec<u32>,
     cells: Vec<u8>,
     subs: Vec<u8>,
     refined: Vec<u32>,
@@ -306,20 +310,42 @@ pub(super) fn hidden_on_rows(
     let dx = (hi - lo) / per_row as f64;
     let key = stream_seed(&[seed, 0x0005_1eaf]);
     let (mut hidden, mut tests) = (0.0, 0u64);
+    // Each row's leaves, in the maps' order (CSR): scanning every map on every row was a
+    // tenth of the softbox's rows.
+    let ys = rows.ys();
+    let span = |r: &Region| (ys.partition_point(|&y| y < r.lo.y), ys.partition_point(|&y| y <= r.hi.y));
+    m.row_maps.clear();
+    m.row_maps.resize(ys.len() + 1, 0);
+    for (k, _) in &m.maps {
+        let (a, b) = span(&leaves.regions[*k]);
+        (a..b).for_each(|j| m.row_maps[j + 1] += 1);
+    }
+    for j in 0..ys.len() {
+        m.row_maps[j + 1] += m.row_maps[j];
+    }
+    m.fill.clear();
+    m.fill.extend_from_slice(&m.row_maps[..ys.len()]);
+    m.on_row.clear();
+    m.on_row.resize(m.row_maps[ys.len()] as usize, 0);
+    for (at, (k, _)) in m.maps.iter().enumerate() {
+        let (a, b) = span(&leaves.regions[*k]);
+        for j in a..b {
+            m.on_row[m.fill[j] as usize] = at as u32;
+            m.fill[j] += 1;
+        }
+    }
     for (j, (y, x0, x1)) in rows.rows().enumerate() {
         m.cells.clear();
         m.cells.resize(per_row as usize, UNKNOWN);
-        for (k, map) in &m.maps {
+        for &at in &m.on_row[m.row_maps[j] as usize..m.row_maps[j + 1] as usize] {
+            let (k, map) = &m.maps[at as usize];
             let r = &leaves.regions[*k];
-            if !(r.lo.y <= y && y <= r.hi.y) {
-                continue;
-            }
             let (a, b) = (r.lo.x.max(x0), r.hi.x.min(x1));
             if a >= b || a.is_nan() || b.is_nan() {
                 continue;
             }
-            let first = ((a - lo) / dx).floor().max(0.0) as usize;
-            let last = (((b - lo) / dx).floor().max(0.0) as usize).min(per_row as usize - 1);
+            let first = ((a - lo) / dx).max(0.0) as usize;
+            let last = (((b - lo) / dx).max(0.0) as usize).min(per_row as usize - 1);
             for i in first..=last.max(first).min(per_row as usize - 1) {
                 let state = &mut m.cells[i];
                 if *state == SKIP || *state == HIDDEN {

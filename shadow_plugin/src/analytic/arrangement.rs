@@ -27,7 +27,7 @@
 //! [`Failure::Inconsistent`]: the caller answers such a point another way and counts it.
 
 use super::contacts::{Contact, Merge, contact};
-use super::segment::{Clipped, Crossing};
+use super::segment::{Clipped, Crossing, from_order_key, order_key};
 pub use super::segment::{Failure, Segment, orient};
 use glam::DVec2;
 
@@ -68,7 +68,7 @@ pub struct Arrangement {
     /// D inside the boundary piece after each boundary end (the whole boundary if none).
     boundary_rel: Vec<i32>,
     queue: Vec<u32>,
-    order: Vec<(f64, u32)>,
+    order: Vec<(u64, u32)>,
     /// Pairs of segments found on one line, overlapping, and the merge's buffers.
     collinear: Vec<(u32, u32)>,
     splits: Vec<(u32, DVec2)>,
@@ -190,15 +190,16 @@ impl Arrangement {
         self.collinear.clear();
         self.splits.clear();
         self.order.clear();
-        self.order.extend(self.segs.iter().enumerate().map(|(i, c)| (c.seg.p0.x.min(c.seg.p1.x), i as u32)));
-        self.order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let key = |c: &Clipped| order_key(c.seg.p0.x.min(c.seg.p1.x));
+        self.order.extend(self.segs.iter().enumerate().map(|(i, c)| (key(c), i as u32)));
+        self.order.sort_unstable_by_key(|o| o.0);
         for x in 0..self.order.len() {
             let i = self.order[x].1 as usize;
             let a = self.segs[i].seg;
             let (ax1, ay0, ay1) = (a.p0.x.max(a.p1.x), a.p0.y.min(a.p1.y), a.p0.y.max(a.p1.y));
             for y in x + 1..self.order.len() {
                 let (bx0, j) = self.order[y];
-                if bx0 > ax1 {
+                if from_order_key(bx0) > ax1 {
                     break;
                 }
                 let b = self.segs[j as usize].seg;

@@ -73,7 +73,7 @@ impl LitRegion {
     /// The rows piece `k` reaches.
     fn span(&self, k: usize) -> std::ops::RangeInclusive<usize> {
         let (a, b) = self.pieces[k];
-        let row = |y: f64| (((y - self.y0) / self.row).floor().max(0.0) as usize).min(self.rows - 1);
+        let row = |y: f64| (((y - self.y0) / self.row).max(0.0) as usize).min(self.rows - 1);
         row(a.y.min(b.y))..=row(a.y.max(b.y))
     }
 
@@ -87,7 +87,7 @@ impl LitRegion {
         if !(q.y >= self.lo.y && q.y <= self.hi.y && q.x <= self.hi.x) {
             return false;
         }
-        let r = (((q.y - self.y0) / self.row).floor().max(0.0) as usize).min(self.rows - 1);
+        let r = (((q.y - self.y0) / self.row).max(0.0) as usize).min(self.rows - 1);
         let mut winding = 0i32;
         for &k in &self.list[self.starts[r] as usize..self.starts[r + 1] as usize] {
             let (a, b) = self.pieces[k as usize];

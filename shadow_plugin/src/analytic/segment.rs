@@ -58,3 +58,14 @@ pub(crate) fn inside_convex(corners: &[DVec2], q: DVec2) -> bool {
     let first = (0..n).map(side).find(|&x| x != 0.0).unwrap_or(0.0);
     (0..n).all(|k| side(k) * first >= 0.0)
 }
+
+/// `x`'s bits as an integer that sorts as `f64::total_cmp` does.
+pub(crate) fn order_key(x: f64) -> u64 {
+    let b = x.to_bits();
+    if b >> 63 == 1 { !b } else { b | 1 << 63 }
+}
+
+/// The inverse of [`order_key`].
+pub(crate) fn from_order_key(k: u64) -> f64 {
+    f64::from_bits(if k >> 63 == 1 { k & !(1 << 63) } else { !k })
+}
