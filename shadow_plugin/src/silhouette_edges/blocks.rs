@@ -19,12 +19,16 @@
 //! queries arrive in, the answers do not.
 
 use super::candidate::{Candidate, GatherRefusal, block_weight};
+use super::edge_tree::EdgeRecord;
 use super::edges::EdgeSet;
 use super::occluders::OccluderEdges;
 use glam::{DVec3, Vec3, Vec3A};
 use renderer::geometry::shaft::Shaft;
 use renderer::util::random::mix64;
 use renderer::{RectLight, Scene};
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 
 /// A cube's side is about the origin's distance to the light's centre over this. Measured
 /// (silhouette's shadow seconds at 320x240, N = 1024, medians of 3 side by side;
@@ -39,8 +43,8 @@ const ENTRIES: usize = 256;
 
 /// A block of space: the occluders' build it belongs to ([`OccluderEdges::id`]), its level (cube side 2^level)
 /// and its cube.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct Key {
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(super) struct Key {
     occluders: u64,
     level: i32,
     cube: [i64; 3],
@@ -64,6 +68,9 @@ struct Entry {
     edges: Vec<u32>,
     candidates: Vec<Candidate>,
     triangles: Vec<u32>,
+    /// The kept candidates' positions in the tree's records, and their weights.
+    positions: Vec<u32>,
+    weights: Vec<i8>,
 }
 
 /// One thread's blocks.
@@ -94,59 +101,17 @@ impl Blocks {
         max_candidates: usize,
     ) -> Option<Result<BlockList<'_>, GatherRefusal>> {
         let (key, centre, radius) = block_of(occluders.id, light, origin)?;
-        let (set, tree, kept) = (&occluders.edges, &occluders.tree, &occluders.kept);
+        let tree = &occluders.tree;
         if self.entries.is_empty() {
             self.entries.resize_with(ENTRIES, Entry::default);
         }
         let entry = &mut self.entries[key.slot()];
         if entry.key != Some(key) {
-            // The ball in f32 for the shaft: the centre's rounding added to the radius.
-            let c32 = centre.as_vec3();
-            let r32 = ((radius + (centre - c32.as_dvec3()).length()) * (1.0 + 1e-6)) as f32;
-            let shaft = Shaft::around_ball(light, c32, r32)?;
-            entry.edges.clear();
-            entry.candidates.clear();
-            entry.triangles.clear();
-            // About half the edges walked keep a weight over a block (flight-helmet: 45%):
-            // twice the candidates allowed ends a walk that cannot give a usable list.
-            let max_walked = max_candidates.saturating_mul(2);
-            let (edges, triangles) = (&mut entry.edges, &mut entry.triangles);
-            let complete = tree.gather(set, &shaft, (centre, radius), edges, triangles, max_walked);
-            entry.refused = if edges.len() > max_walked {
-                Some(GatherRefusal::TooManyCandidates)
-            } else if !complete {
-                Some(GatherRefusal::NoShaft)
+            if let Some(walked) = occluders.walked.get(&key) {
+                entry.read(&walked, &tree.records);
             } else {
-                None
-            };
-            // The weights over the block; edges that weigh 0 for every point are dropped.
-            for &pos in entry.edges.iter().take_while(|_| entry.refused.is_none()) {
-                let r = &tree.records[pos as usize];
-                let w = block_weight(r, centre, radius);
-                if w != 0 {
-                    entry.candidates.push(Candidate::new(r, w));
-                }
-            }
-            // The kept instances' edges, weighed as they are found.
-            if entry.refused.is_none() {
-                let mut walked = entry.edges.len();
-                let ball = (centre, radius);
-                entry.refused = match kept.gather(
-                    scene,
-                    &shaft,
-                    ball,
-                    true,
-                    &mut entry.candidates,
-                    (&mut walked, max_walked),
-                ) {
-                    Err(why) => Some(why),
-                    Ok(_) if walked > max_walked => Some(GatherRefusal::TooManyCandidates),
-                    Ok(false) => Some(GatherRefusal::NoShaft),
-                    Ok(true) => None,
-                };
-            }
-            if entry.refused.is_none() && entry.candidates.len() > max_candidates {
-                entry.refused = Some(GatherRefusal::TooManyCandidates);
+                entry.walk(occluders, light, scene, (centre, radius), max_candidates)?;
+                occluders.walked.offer(key, entry);
             }
             entry.key = Some(key);
         }
@@ -155,6 +120,137 @@ impl Blocks {
             None => Ok(BlockList { candidates: &entry.candidates, triangles: &entry.triangles }),
             Some(why) => Err(why),
         })
+    }
+}
+
+impl Entry {
+    /// Walks the tree (and the kept instances) for the block of ball (`centre`, `radius`);
+    /// `None` where no shaft holds the ball.
+    fn walk(
+        &mut self,
+        occluders: &OccluderEdges,
+        light: &RectLight,
+        scene: &Scene,
+        (centre, radius): (DVec3, f64),
+        max_candidates: usize,
+    ) -> Option<()> {
+        let (set, tree, kept) = (&occluders.edges, &occluders.tree, &occluders.kept);
+        // The ball in f32 for the shaft: the centre's rounding added to the radius.
+        let c32 = centre.as_vec3();
+        let r32 = ((radius + (centre - c32.as_dvec3()).length()) * (1.0 + 1e-6)) as f32;
+        let shaft = Shaft::around_ball(light, c32, r32)?;
+        self.edges.clear();
+        self.candidates.clear();
+        self.triangles.clear();
+        self.positions.clear();
+        self.weights.clear();
+        // About half the edges walked keep a weight over a block (flight-helmet: 45%):
+        // twice the candidates allowed ends a walk that cannot give a usable list.
+        let max_walked = max_candidates.saturating_mul(2);
+        let (edges, triangles) = (&mut self.edges, &mut self.triangles);
+        let complete = tree.gather(set, &shaft, (centre, radius), edges, triangles, max_walked);
+        self.refused = if edges.len() > max_walked {
+            Some(GatherRefusal::TooManyCandidates)
+        } else if !complete {
+            Some(GatherRefusal::NoShaft)
+        } else {
+            None
+        };
+        // The weights over the block; edges that weigh 0 for every point are dropped.
+        for &pos in self.edges.iter().take_while(|_| self.refused.is_none()) {
+            let r = &tree.records[pos as usize];
+            let w = block_weight(r, centre, radius);
+            if w != 0 {
+                self.candidates.push(Candidate::new(r, w));
+                self.positions.push(pos);
+                self.weights.push(w);
+            }
+        }
+        // The kept instances' edges, weighed as they are found.
+        if self.refused.is_none() {
+            let mut walked = self.edges.len();
+            let ball = (centre, radius);
+            self.refused =
+                match kept.gather(scene, &shaft, ball, true, &mut self.candidates, (&mut walked, max_walked))
+                {
+                    Err(why) => Some(why),
+                    Ok(_) if walked > max_walked => Some(GatherRefusal::TooManyCandidates),
+                    Ok(false) => Some(GatherRefusal::NoShaft),
+                    Ok(true) => None,
+                };
+        }
+        if self.refused.is_none() && self.candidates.len() > max_candidates {
+            self.refused = Some(GatherRefusal::TooManyCandidates);
+        }
+        Some(())
+    }
+
+    /// The list a walk stored: the same candidates in the same order.
+    fn read(&mut self, walked: &Walked, records: &[EdgeRecord]) {
+        self.refused = walked.refused;
+        self.candidates.clear();
+        self.candidates.extend(
+            walked
+                .positions
+                .iter()
+                .zip(&walked.weights)
+                .map(|(&p, &w)| Candidate::new(&records[p as usize], w)),
+        );
+        self.triangles.clear();
+        self.triangles.extend_from_slice(&walked.triangles);
+    }
+}
+
+/// A walk's list, compact (5 bytes a candidate against a [`Candidate`]'s 64).
+#[derive(Debug)]
+pub(super) struct Walked {
+    refused: Option<GatherRefusal>,
+    positions: Vec<u32>,
+    weights: Vec<i8>,
+    triangles: Vec<u32>,
+}
+
+/// Stored walks shared by every thread, up to [`MAX_STORED_BYTES`]: a block walked once is
+/// read again by any thread whose own cache lost it. The path tracer's bounce points fall
+/// all over a scene: under the softbox (160x120, max_depth 5, spp 4) the threads walked
+/// 2,882 times for 987 blocks, 21% of the time.
+#[derive(Debug, Default)]
+pub(crate) struct WalkedBlocks {
+    map: Mutex<HashMap<Key, Arc<Walked>>>,
+    bytes: AtomicU64,
+}
+
+/// The stored walks' memory bound per light (the walks that do not fit are walked again).
+const MAX_STORED_BYTES: u64 = 128 << 20;
+
+impl WalkedBlocks {
+    fn get(&self, key: &Key) -> Option<Arc<Walked>> {
+        self.map.lock().unwrap_or_else(|e| e.into_inner()).get(key).cloned()
+    }
+
+    /// Stores `entry`'s walk if it fits and every candidate came from the tree (a kept
+    /// instance's are not records).
+    fn offer(&self, key: Key, entry: &Entry) {
+        if entry.candidates.len() != entry.positions.len() {
+            return;
+        }
+        let bytes = 5 * entry.positions.len() as u64 + 4 * entry.triangles.len() as u64 + 64;
+        if self.bytes.load(Ordering::Relaxed) + bytes > MAX_STORED_BYTES {
+            return;
+        }
+        self.bytes.fetch_add(bytes, Ordering::Relaxed);
+        let walked = Walked {
+            refused: entry.refused,
+            positions: entry.positions.clone(),
+            weights: entry.weights.clone(),
+            triangles: entry.triangles.clone(),
+        };
+        self.map.lock().unwrap_or_else(|e| e.into_inner()).insert(key, Arc::new(walked));
+    }
+
+    /// Bytes held.
+    pub(crate) fn bytes(&self) -> u64 {
+        self.bytes.load(Ordering::Relaxed)
     }
 }
 

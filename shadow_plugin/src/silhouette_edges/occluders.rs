@@ -2,6 +2,7 @@
 //! (`edges.rs`), its tree (`edge_tree.rs`) and the kept instances' edges (`kept.rs`), under
 //! an identity the per-thread block caches (`blocks.rs`) key their entries by.
 
+use super::blocks::WalkedBlocks;
 use super::edge_tree::EdgeTree;
 use super::edges::EdgeSet;
 use super::kept::KeptEdges;
@@ -18,6 +19,8 @@ pub(crate) struct OccluderEdges {
     pub(crate) kept: KeptEdges,
     /// This build's identity: never 0 (an unbuilt one's), never reused in this process.
     pub(crate) id: u64,
+    /// The blocks' walks, shared by the threads.
+    pub(crate) walked: WalkedBlocks,
 }
 
 impl OccluderEdges {
@@ -28,11 +31,11 @@ impl OccluderEdges {
         let kept = KeptEdges::build(scene, light);
         static NEXT_ID: AtomicU64 = AtomicU64::new(1);
         let id = NEXT_ID.fetch_add(1, Ordering::Relaxed);
-        OccluderEdges { edges, tree, kept, id }
+        OccluderEdges { edges, tree, kept, id, walked: WalkedBlocks::default() }
     }
 
     /// Bytes held (the run report's memory).
     pub(crate) fn bytes(&self) -> u64 {
-        self.edges.bytes() + self.tree.bytes() + self.kept.bytes()
+        self.edges.bytes() + self.tree.bytes() + self.kept.bytes() + self.walked.bytes()
     }
 }
