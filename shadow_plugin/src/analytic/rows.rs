@@ -287,6 +287,12 @@ impl Rows {
         self.ys.iter().zip(&self.ends).map(|(&y, &[(x0, _), (x1, _)])| (y, x0, x1))
     }
 
+    /// Row `j`'s intervals if they lie at depth `level` (a row keeps its lowest only).
+    pub(super) fn level_intervals(&self, j: usize, level: i32) -> &[(u32, f64, f64, i32)] {
+        let row = &self.intervals[self.row_starts[j] as usize..self.row_starts[j + 1] as usize];
+        if row.first().is_some_and(|i| i.3 == level) { row } else { &[] }
+    }
+
     /// Whether x on row `j` lies on an interval at depth `level`.
     pub(super) fn at_level(&self, j: usize, level: i32, x: f64) -> bool {
         let row = &self.intervals[self.row_starts[j] as usize..self.row_starts[j + 1] as usize];
