@@ -88,12 +88,9 @@ pub(super) fn texture_ref(
         }
     };
     let sampler = texture.sampler();
-    let transform = info.texture_transform().map_or(Affine2::IDENTITY, |t| {
-        let (s, c) = t.rotation().sin_cos();
-        let rotation = Mat2::from_cols(Vec2::new(c, s), Vec2::new(-s, c));
-        let scale = Mat2::from_diagonal(Vec2::from(t.scale()));
-        Affine2::from_mat2_translation(rotation * scale, Vec2::from(t.offset()))
-    });
+    let transform = info
+        .texture_transform()
+        .map_or(Affine2::IDENTITY, |t| uv_transform(t.offset(), t.rotation(), t.scale()));
     Ok(TextureRef {
         texture: slot,
         wrap_s: wrap(sampler.wrap_s()),
@@ -196,4 +193,34 @@ pub(super) fn to_rgba8(data: &gltf::image::Data) -> Option<Texture> {
         })
         .collect();
     Some(Texture { width: data.width, height: data.height, rgba8 })
+}
+
+/// KHR_texture_transform's matrix: scale, then rotation, then offset. The rotation turns the
+/// glTF way (u right, v down: positive turns from +v towards +u), as the Khronos sample
+/// viewer, three.js and Blender's importer read it, not as the extension README's GLSL listing
+/// does (KhronosGroup/glTF#1563): that listing turns the README's own example the other way.
+fn uv_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Affine2 {
+    let (s, c) = rotation.sin_cos();
+    let turn = Mat2::from_cols(Vec2::new(c, -s), Vec2::new(s, c));
+    Affine2::from_mat2_translation(turn * Mat2::from_diagonal(Vec2::from(scale)), Vec2::from(offset))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The extension README's example: offset [0, 1], rotation pi/2, scale 0.5 shows the
+    /// texture's lower-left quadrant (u < 0.5, v > 0.5 with v down) over the whole surface.
+    #[test]
+    fn texture_transform_turns_the_readme_example_to_the_lower_left_quadrant() {
+        let t = uv_transform([0.0, 1.0], std::f32::consts::FRAC_PI_2, [0.5, 0.5]);
+        for (u, v) in [(0.01, 0.01), (0.5, 0.5), (0.99, 0.01), (0.01, 0.99), (0.99, 0.99)] {
+            let q = t.transform_point2(Vec2::new(u, v));
+            // Repeat wrapping, as the sampler's default.
+            let w = q - q.floor();
+            assert!(w.x <= 0.5 + 1e-6 && w.y >= 0.5 - 1e-6, "uv ({u}, {v}) -> {q} (wrapped {w})");
+        }
+        let centre = t.transform_point2(Vec2::splat(0.5));
+        assert!((centre - Vec2::new(0.25, 0.75)).length() < 1e-6, "centre -> {centre}");
+    }
 }
