@@ -47,6 +47,12 @@ const EXPECTED: &[(&str, &str, Expect)] = &[
     // listing itself twice: 2^256.
     ("gltf", "handmade-node-dag-hang.gltf", Expect::Refused("nodes[24]", "reached twice")),
     ("gltf", "handmade-node-self-loop.gltf", Expect::Refused("nodes[0]", "reached twice")),
+    // gltf's reader asserted on a byteStride (5) under a VEC3 float's 12 bytes.
+    (
+        "gltf",
+        "byte-stride-under-element-size.gltf",
+        Expect::Refused("meshes[0].primitives[0].attributes.POSITION", "byteStride 5"),
+    ),
 ];
 
 fn root() -> PathBuf {
