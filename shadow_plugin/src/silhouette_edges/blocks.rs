@@ -15,8 +15,9 @@
 //! the counting needs, and a kept weight is each point's own weight. (A point's own walk
 //! may keep a few more edges its rounding margins cannot separate; which path a point takes
 //! depends on its origin alone, so the answers do not depend on the order or the threads.)
-//! The cache is per thread and direct-mapped; which points walk depends on the order
-//! queries arrive in, the answers do not.
+//! The cache is per thread and direct-mapped, over a store of compact walks every thread
+//! reads ([`WalkedBlocks`]); which points walk depends on the order queries arrive in, the
+//! answers do not.
 
 use super::candidate::{Candidate, GatherRefusal, block_weight};
 use super::edge_tree::EdgeRecord;
