@@ -10,6 +10,7 @@ pub mod integrator;
 pub mod interface;
 pub mod load;
 pub mod methods;
+pub mod shading;
 pub mod util;
 
 pub use geometry::camera::Camera;
