@@ -94,7 +94,7 @@ impl GltfBrdf {
     /// `D·V·[(1 − m)(0.04 + 0.96 s) + m (c + (1 − c) s)]`. Collecting terms, the factor without s
     /// is `(1 − m) 0.04 + m c = f0`, and the factor of s is `(1 − m) 0.96 + m (1 − c) = 1 − f0`,
     /// so it is `D·V·(f0 + (f90 − f0) s)` with f90 = 1. Integrated against any region this
-    /// gives `f0·∫D·V·cos + (f90 − f0)·∫s·D·V·cos`, the split the LTC table holds.
+    /// gives `f0·∫D·V·cos + (f90 − f0)·∫s·D·V·cos`, the split [`crate::shading::ltc`] tabulates.
     pub fn specular_tint(&self) -> (Vec3, Vec3) {
         let f0 = Vec3::splat(DIELECTRIC_F0).lerp(self.base_color, self.metallic01());
         (f0, Vec3::ONE)

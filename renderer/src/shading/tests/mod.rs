@@ -2,4 +2,6 @@
 
 mod brdf_eval;
 mod brdf_sampling;
+mod ltc_accuracy;
+mod ltc_geometry;
 mod quadrature_rules;
