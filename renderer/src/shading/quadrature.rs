@@ -161,7 +161,7 @@ pub fn cosine_integral(n: usize, mut g: impl FnMut(DVec3) -> DVec3) -> DVec3 {
 /// - Appendix B weights the dielectric's diffuse part by 1 − F(wo·h), which stays near 0.96
 ///   for most `wi` even when the specular part reflects much of a grazing view: a white
 ///   dielectric reflects *more* than 1 there (1.0006 at cosθ_v = 0.7, 1.03 at 0.5, 1.55 at
-///   0.1, roughness 0.02; 0.97 to 1.0 at roughness 1).
+///   0.1, roughness 0.02; 0.97 to 1.01 at roughness 1).
 ///
 /// A path tracer's furnace test must compare against this, not 1.
 pub fn directional_albedo(brdf: &GltfBrdf, cos_theta_v: f32) -> Vec3 {
