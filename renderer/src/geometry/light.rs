@@ -57,6 +57,36 @@ impl RectLight {
         (p - self.center).dot(self.normal) > 0.0
     }
 
+    /// Where the ray from `o` along unit `d` meets the light from its emitting side: the
+    /// distance, in f64 (a bounce that finds a light it reflects, [`crate::integrator::gltf_path`]).
+    pub fn crossing(&self, o: Vec3, d: Vec3) -> Option<f32> {
+        let (n, d64) = (self.normal.as_dvec3(), d.as_dvec3());
+        let facing = -n.dot(d64);
+        if facing.is_nan() || facing <= 0.0 {
+            return None;
+        }
+        let t = n.dot(o.as_dvec3() - self.center.as_dvec3()) / facing;
+        if t.is_nan() || t <= 0.0 {
+            return None;
+        }
+        let q = o.as_dvec3() + t * d64 - self.center.as_dvec3();
+        let (u, v) = (self.u.as_dvec3(), self.v.as_dvec3());
+        let (a, b) = (q.dot(u) / u.length_squared(), q.dot(v) / v.length_squared());
+        (a.abs() <= 0.5 && b.abs() <= 0.5).then_some(t as f32)
+    }
+
+    /// Whether `p` lies on the light's rectangle, to a ten-thousandth of its size (a hit on
+    /// the triangles of an emissive rectangle made a light).
+    pub fn holds(&self, p: Vec3) -> bool {
+        let q = p.as_dvec3() - self.center.as_dvec3();
+        let (u, v) = (self.u.as_dvec3(), self.v.as_dvec3());
+        let size = u.length() + v.length();
+        let slack = 1e-4;
+        q.dot(self.normal.as_dvec3()).abs() <= slack * size
+            && (q.dot(u) / u.length_squared()).abs() <= 0.5 + slack
+            && (q.dot(v) / v.length_squared()).abs() <= 0.5 + slack
+    }
+
     /// Irradiance factor at `p` on a surface with unit normal `n`: E / L, the cosine-weighted
     /// solid angle of the light (the polygon form factor times pi), with the light clipped to
     /// the upper hemisphere of `n` and zero behind the emitting side. Multiply by

@@ -14,6 +14,7 @@
 use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::offset_origin;
 use crate::geometry::scene::{Scene, SurfaceHit};
+use crate::interface::lobe::{GlossyLobe, LobeVisibility};
 use crate::interface::shadowing::{LightShadowing, ShadowQuery};
 use crate::util::pixel_cost::Work;
 use crate::util::random::{Rng, stream_seed};
@@ -110,22 +111,25 @@ pub fn merge_vertex_queries(a: &mut Vec<VertexQueries>, b: &[VertexQueries]) {
 }
 
 /// Light `k`'s visibility at `point` (vertex `vertex` of path `id`), by the light's method,
-/// counted in `stats[vertex - 1]`.
+/// with `lobe`'s share where the surface is glossy, counted in `stats[vertex - 1]`.
 pub fn shadow_query(
     ctx: &PathContext,
     point: &ShadingPoint,
-    id: &PathId,
-    k: usize,
-    vertex: u32,
+    (id, k, vertex): (&PathId, usize, u32),
     irradiance: f32,
+    lobe: Option<&GlossyLobe>,
     stats: &mut [VertexQueries],
-) -> f32 {
+) -> LobeVisibility {
     let method = ctx.methods[k].as_ref();
     let seed = id.shadow_seed(k, vertex, method.seed_salt());
     let q = ShadowQuery { point: *point, pixel: id.pixel, seed, irradiance };
     let (t0, w0) = (ctx.profile.then(Instant::now), Work::now());
-    let v = method.visibility(ctx.scene, &q);
-    debug_assert!((0.0..=1.0).contains(&v), "{} returned {v}", method.name());
+    let v = match lobe {
+        Some(lobe) => method.visibility_glossy(ctx.scene, &q, lobe),
+        None => LobeVisibility::both(method.visibility(ctx.scene, &q)),
+    };
+    debug_assert!((0.0..=1.0).contains(&v.diffuse), "{} returned {v:?}", method.name());
+    debug_assert!((0.0..=1.0).contains(&v.glossy), "{} returned {v:?}", method.name());
     let work = Work::now().since(w0);
     let s = &mut stats[vertex as usize - 1];
     s.queries += 1;
@@ -185,7 +189,7 @@ pub fn indirect(
             if e <= 0.0 {
                 continue;
             }
-            let v = shadow_query(ctx, &next.point, id, k, vertex, e, stats);
+            let v = shadow_query(ctx, &next.point, (id, k, vertex), e, None, stats).diffuse;
             direct += light.radiance * (e * v);
         }
         l += beta * a * direct * std::f32::consts::FRAC_1_PI;

@@ -466,8 +466,15 @@ fn shade_pixel(
             if e <= 0.0 {
                 continue; // no light reaches: skip the shadow query
             }
-            let v =
-                crate::integrator::path::shadow_query(&ctx, &hit.point, &id, k, 1, e, &mut tally.vertices);
+            let v = crate::integrator::path::shadow_query(
+                &ctx,
+                &hit.point,
+                (&id, k, 1),
+                e,
+                None,
+                &mut tally.vertices,
+            )
+            .diffuse;
             tally.facing[k] += 1;
             tally.lit[k] += u64::from(v > 0.0);
             vis_px[k] += v;

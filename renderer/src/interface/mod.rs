@@ -5,5 +5,6 @@
 //! of a method. Nothing here imports the integrator or the loaders.
 
 pub mod entry;
+pub mod lobe;
 pub mod method;
 pub mod shadowing;

@@ -10,6 +10,7 @@
 use crate::geometry::light::RectLight;
 use crate::geometry::point::ShadingPoint;
 use crate::geometry::scene::Scene;
+use crate::interface::lobe::{GlossyLobe, LobeVisibility};
 
 /// What a method may look at when it prepares for one light.
 pub struct PrepareContext<'a> {
@@ -98,6 +99,16 @@ pub trait LightShadowing: Send + Sync {
     /// Visibility in [0, 1] of the prepared light from `q`. Called only where the light's
     /// unshadowed irradiance at `q` is non-zero. Must not allocate.
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32;
+
+    /// For a glossy surface: V and the share of `lobe`'s weighted light
+    /// ([`crate::interface::lobe`]), from one set of verdicts. Called, like `visibility`,
+    /// only where the light's unshadowed irradiance at `q` is non-zero; must not allocate.
+    /// The default weighs no lobe: the glossy share is V (the depth-map methods, whose
+    /// verdicts are not per light point; the contract says so).
+    fn visibility_glossy(&self, scene: &Scene, q: &ShadowQuery, lobe: &GlossyLobe) -> LobeVisibility {
+        let _ = lobe;
+        LobeVisibility::both(self.visibility(scene, q))
+    }
 
     /// XORed into the frame's seed where this method's query seeds are derived
     /// ([`ShadowQuery::seed`]; 0, the frame's own streams, unless a method asks for light

@@ -10,6 +10,7 @@ use crate::geometry::light::RectLight;
 use crate::geometry::ray_origin::offset_origin;
 use crate::geometry::scene::Scene;
 use crate::geometry::shaft;
+use crate::interface::lobe::{GlossyLobe, LobeTally};
 use crate::interface::shadowing::ShadowQuery;
 use crate::methods::irradiance_share::{IrradianceShare, ShareTally};
 use crate::util::random::{Rng, strata};
@@ -359,6 +360,13 @@ impl<'a> PointSamples<'a> {
     /// target, without the horizon and shaft tests.
     #[inline]
     pub fn weight_at(&self, stratum: u32) -> f64 {
+        let (a, b) = self.plain_coords(stratum);
+        self.share.weight_at(a, b)
+    }
+
+    /// The rectangle coordinates of that sample (the plain grid's draw for `stratum`).
+    #[inline]
+    pub fn plain_coords(&self, stratum: u32) -> (f32, f32) {
         debug_assert!(self.plain_grid());
         let (nx, ny) = self.strata;
         let (i, j) = (stratum % nx, stratum / nx);
@@ -366,7 +374,17 @@ impl<'a> PointSamples<'a> {
         rng.skip(2 * stratum as u64);
         let a = (i as f32 + rng.next_f32()) / nx as f32;
         let b = (j as f32 + rng.next_f32()) / ny as f32;
-        self.share.weight_at(a, b)
+        (a, b)
+    }
+
+    /// The query these samples answer.
+    pub fn query(&self) -> &ShadowQuery {
+        self.q
+    }
+
+    /// The light this point's samples lie on.
+    pub fn light(&self) -> &RectLight {
+        &self.light
     }
 
     /// The sample [`PointSamples::for_each`] draws for stratum `i + nx j`, alone (the
@@ -442,6 +460,23 @@ impl<'a> PointSamples<'a> {
             tally.add(self.weight(&s), blocked);
         });
         (tally, traced)
+    }
+
+    /// [`PointSamples::trace`] with `lobe`'s sums beside the tally: each sample's weight
+    /// times the lobe's factor at it ([`GlossyLobe::factor`]), for the glossy share.
+    pub fn trace_glossy(&self, scene: &Scene, lobe: &GlossyLobe) -> (ShareTally, LobeTally, u32) {
+        let (mut tally, mut glossy, mut traced) = (ShareTally::default(), LobeTally::default(), 0u32);
+        let p = self.q.point.p;
+        self.for_each(|s| {
+            let blocked = !s.proven && {
+                traced += 1;
+                self.occluded(scene, &s)
+            };
+            let w = self.weight(&s);
+            tally.add(w, blocked);
+            glossy.add(w * lobe.factor(s.target - p) as f64, !blocked);
+        });
+        (tally, glossy, traced)
     }
 
     /// Whether `s`'s shadow ray (`traced`'s own) meets any of the triangles `slots`, alone

@@ -3,6 +3,7 @@
 
 use crate::geometry::scene::Scene;
 use crate::interface::entry::MethodEntry;
+use crate::interface::lobe::{GlossyLobe, LobeVisibility};
 use crate::interface::method::{KeyError, MethodParams, NoKeys, ShadowMethod};
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError, ShadowQuery};
 use crate::methods::sample_stream::{Culling, SampleStream};
@@ -194,6 +195,19 @@ impl LightShadowing for Traced {
         // No sample above the horizon (a sliver of less than MIN_CLIPPED_AREA of the light,
         // not warped, or lost to f32 rounding) reads 1: too small to resolve, unshadowed.
         tally.visibility(samples.share())
+    }
+
+    fn visibility_glossy(&self, scene: &Scene, q: &ShadowQuery, lobe: &GlossyLobe) -> LobeVisibility {
+        let culling = if self.params.shaft_culling { Culling::Leaves } else { Culling::Off };
+        let samples = match self.stream.point(scene, q, culling) {
+            Ok(samples) => samples,
+            Err(visibility) => return LobeVisibility::both(visibility),
+        };
+        let (tally, glossy, traced) = samples.trace_glossy(scene, lobe);
+        self.rays.fetch_add(traced as u64, Ordering::Relaxed);
+        self.occluded.fetch_add(tally.blocked as u64, Ordering::Relaxed);
+        let diffuse = tally.visibility(samples.share());
+        LobeVisibility { diffuse, glossy: glossy.share(diffuse) }
     }
 
     fn counters(&self) -> Vec<(&'static str, u64)> {

@@ -79,8 +79,7 @@ pub struct BrdfSample {
 impl GltfBrdf {
     /// α = max(roughness, [`ROUGHNESS_MIN`])², roughness clamped to at most 1.
     pub fn alpha(&self) -> f32 {
-        let r = self.roughness.clamp(ROUGHNESS_MIN, 1.0);
-        r * r
+        alpha_of(self.roughness)
     }
 
     fn metallic01(&self) -> f32 {
@@ -188,6 +187,13 @@ impl GltfBrdf {
         let weight = self.eval(wo, wi).total() * (wi.z / pdf);
         Some(BrdfSample { wi, weight, pdf, from_specular })
     }
+}
+
+/// GGX alpha of perceptual `roughness`: max(roughness, [`ROUGHNESS_MIN`])^2, roughness
+/// clamped to at most 1.
+pub fn alpha_of(roughness: f32) -> f32 {
+    let r = roughness.clamp(ROUGHNESS_MIN, 1.0);
+    r * r
 }
 
 /// The GGX normal distribution `D = α² / (π (cos²θ_h (α² − 1) + 1)²)` for `cos_h = n·h > 0`,

@@ -176,17 +176,35 @@ pub(super) struct LeafScratch {
     ys: Vec<f64>,
 }
 
-/// The estimated sum (in [`LightPlane::edge_term`]'s units, positive) of the part of the
+/// The weights the leaves' estimates sum: Lambert's, and a glossy lobe's where the query
+/// has one ([`super::lobe`]; 0 under the fit's horizon by its own cosine).
+#[derive(Clone, Copy)]
+pub(super) struct Planes<'a> {
+    pub cosine: &'a LightPlane,
+    pub lobe: Option<&'a LightPlane>,
+}
+
+impl Planes<'_> {
+    #[inline]
+    fn add(&self, q: DVec2, area: f64, sums: &mut [f64; 2]) {
+        sums[0] += self.cosine.weight(q) * area;
+        if let Some(lobe) = self.lobe {
+            sums[1] += lobe.weight(q) * area;
+        }
+    }
+}
+
+/// The estimated sums (in [`LightPlane::edge_term`]'s units, positive) of the part of the
 /// visible region the leaves hide, over the convex `part`, with `samples` strata over the
 /// leaves' box and the point's `seed`; and the leaf tests it made. `None` where the leaves'
 /// boxes would cost more tests than [`MAX_TESTS_PER_STRATUM`].
 pub(super) fn hidden_by_leaves(
     scene: &Scene,
-    plane: &LightPlane,
+    planes: Planes,
     (leaves, lit): (&Leaves, &LitRegion),
     (part, m): (&[DVec2], &mut LeafScratch),
     (samples, seed): (u32, u64),
-) -> Option<(f64, u64)> {
+) -> Option<([f64; 2], u64)> {
     let alpha = |r: &&Region| leaves.flags[r.slot as usize] & crate::silhouette_edges::edges::ALPHA != 0;
     let (mut lo, mut hi) = (DVec2::INFINITY, DVec2::NEG_INFINITY);
     for r in leaves.regions.iter().filter(alpha) {
@@ -197,7 +215,7 @@ pub(super) fn hidden_by_leaves(
     let (llo, lhi) = lit.bounds();
     let (lo, hi) = (lo.max(plo).max(llo), hi.min(phi).min(lhi));
     if !(lo.x < hi.x && lo.y < hi.y) {
-        return Some((0.0, 0));
+        return Some(([0.0; 2], 0));
     }
     let (nx, ny) = strata(samples);
     let cuts = |n: u32, a: f64, b: f64, out: &mut Vec<f64>| {
@@ -239,20 +257,20 @@ pub(super) fn hidden_by_leaves(
             }
         }
     }
-    let mut sum = 0.0;
+    let mut sum = [0.0; 2];
     for (c, &first) in m.refined.iter().enumerate() {
         let ij = (c as u64 % grid.nx, c as u64 / grid.nx);
         if first == u32::MAX {
             if m.cells[c] == HIDDEN {
                 let (q, area) = grid.sample(ij, 0, 1);
-                sum += plane.weight(q) * area;
+                planes.add(q, area, &mut sum);
             }
             continue;
         }
         for k in 0..REFINE * REFINE {
             if m.subs[first as usize + k as usize] == HIDDEN {
                 let (q, area) = grid.sample(ij, k, REFINE);
-                sum += plane.weight(q) * area;
+                planes.add(q, area, &mut sum);
             }
         }
     }
@@ -296,11 +314,11 @@ fn refine(cells: &[u8], (nx, ny): (usize, usize), refined: &mut Vec<u32>) {
 /// projective maps: no ray) until one hides it. And the tests it made.
 pub(super) fn hidden_on_rows(
     scene: &Scene,
-    (plane, leaves): (&LightPlane, &Leaves),
+    (planes, leaves): (Planes, &Leaves),
     (rows, level): (&Rows, i32),
     (per_row, seed): (u32, u64),
     m: &mut LeafScratch,
-) -> (f64, u64) {
+) -> ([f64; 2], u64) {
     let is_alpha = |r: &Region| leaves.flags[r.slot as usize] & crate::silhouette_edges::edges::ALPHA != 0;
     m.maps.clear();
     for (k, r) in leaves.regions.iter().enumerate().filter(|(_, r)| is_alpha(r)) {
@@ -309,7 +327,7 @@ pub(super) fn hidden_on_rows(
     let (lo, hi) = rows.rows().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), r| (l.min(r.1), h.max(r.2)));
     let dx = (hi - lo) / per_row as f64;
     let key = stream_seed(&[seed, 0x0005_1eaf]);
-    let (mut hidden, mut tests) = (0.0, 0u64);
+    let (mut hidden, mut tests) = ([0.0; 2], 0u64);
     // Each row's leaves, in the maps' order (CSR): scanning every map on every row was a
     // tenth of the softbox's rows.
     let ys = rows.ys();
@@ -385,7 +403,7 @@ pub(super) fn hidden_on_rows(
                 tests += 1;
                 if map.hides(scene, q) {
                     *state = HIDDEN;
-                    hidden += plane.weight(q) * dx;
+                    planes.add(q, dx, &mut hidden);
                 }
             }
         }

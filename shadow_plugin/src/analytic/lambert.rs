@@ -9,7 +9,7 @@
 //! which keeps tiny pieces accurate where acos would not.
 
 use super::arrangement::MAX_DOMAIN;
-use glam::{DVec2, DVec3};
+use glam::{DMat3, DVec2, DVec3};
 use renderer::RectLight;
 
 /// The light's plane seen from one point.
@@ -38,6 +38,20 @@ impl LightPlane {
         let (u, v) = (u / unit, v / unit);
         let n_light = light.normal.as_dvec3();
         LightPlane { corner: corner / unit, u, v, n, n_light, area2: 2.0 * u.cross(v).length() }
+    }
+
+    /// The same plane in a linearly transformed space, `m` taking the point's vectors there
+    /// (a glossy lobe's clamped-cosine space, [`renderer::interface::lobe::GlossyLobe`]): its
+    /// terms, weights and row integrals are those of the cosine about z in that space, which
+    /// is the lobe's fit here. Light coordinates are kept (a linear map keeps the plane's
+    /// affine coordinates), and the point keeps its side of the plane.
+    pub fn transformed(&self, m: DMat3) -> LightPlane {
+        let (corner, u, v) = (m * self.corner, m * self.u, m * self.v);
+        let mut n_light = u.cross(v).normalize_or_zero();
+        if (n_light.dot(corner) > 0.0) != (self.n_light.dot(self.corner) > 0.0) {
+            n_light = -n_light;
+        }
+        LightPlane { corner, u, v, n: DVec3::Z, n_light, area2: 2.0 * u.cross(v).length() }
     }
 
     /// The vector from the point to light point `q` (light coordinates).

@@ -31,11 +31,13 @@ mod contacts;
 mod entry;
 pub mod lambert;
 mod lit_region;
+mod lobe;
 mod query;
 mod rows;
 pub mod segment;
 
 use crate::silhouette::Silhouette;
+use renderer::interface::lobe::{GlossyLobe, LobeVisibility};
 use renderer::interface::method::NoKeys;
 use renderer::{
     KeyError, LightShadowing, MethodParams, PrepareContext, RectLight, Scene, ShadowError, ShadowMethod,
@@ -132,9 +134,19 @@ impl Analytic {
         self.light.as_ref().expect("prepare() runs before visibility()")
     }
 
-    fn count(&self, scene: &Scene, q: &ShadowQuery, why: Fallback) -> f32 {
+    /// `q` answered by counting (`why`), with `lobe`'s share where it has one.
+    fn count(
+        &self,
+        scene: &Scene,
+        q: &ShadowQuery,
+        lobe: Option<&GlossyLobe>,
+        why: Fallback,
+    ) -> LobeVisibility {
         self.counters.fallback[why as usize].fetch_add(1, Ordering::Relaxed);
-        self.counting.visibility(scene, q)
+        match lobe {
+            Some(lobe) => self.counting.visibility_glossy(scene, q, lobe),
+            None => LobeVisibility::both(self.counting.visibility(scene, q)),
+        }
     }
 }
 
@@ -157,9 +169,17 @@ impl LightShadowing for Analytic {
 
     fn visibility(&self, scene: &Scene, q: &ShadowQuery) -> f32 {
         self.counters.points.fetch_add(1, Ordering::Relaxed);
-        match query::visibility(self, scene, q) {
+        match query::visibility(self, scene, q, None) {
+            Ok(v) => v.diffuse,
+            Err(why) => self.count(scene, q, None, why).diffuse,
+        }
+    }
+
+    fn visibility_glossy(&self, scene: &Scene, q: &ShadowQuery, lobe: &GlossyLobe) -> LobeVisibility {
+        self.counters.points.fetch_add(1, Ordering::Relaxed);
+        match query::visibility(self, scene, q, Some(lobe)) {
             Ok(v) => v,
-            Err(why) => self.count(scene, q, why),
+            Err(why) => self.count(scene, q, Some(lobe), why),
         }
     }
 

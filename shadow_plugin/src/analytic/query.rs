@@ -1,9 +1,10 @@
 //! One point's V, integrated (see the module doc of `analytic`).
 
-use super::alpha::{LeafScratch, Leaves, hidden_by_leaves, hidden_on_rows};
+use super::alpha::{LeafScratch, Leaves, Planes, hidden_by_leaves, hidden_on_rows};
 use super::arrangement::{Arrangement, Failure, MAX_DOMAIN, Segment};
 use super::lambert::{LightPlane, clip_polygon};
 use super::lit_region::LitRegion;
+use super::lobe::{ClippedSum, Crossing, LobePlane};
 use super::rows::Rows;
 use super::segment::inside_convex;
 use super::{Analytic, Fallback};
@@ -14,6 +15,7 @@ use glam::{DVec2, Vec3};
 use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;
 use renderer::geometry::shaft::{self, Shaft};
+use renderer::interface::lobe::{GlossyLobe, LobeVisibility};
 use renderer::util::random::mix64;
 use renderer::{Scene, ShadowQuery};
 use std::cell::RefCell;
@@ -56,6 +58,8 @@ struct Scratch {
     leaves: LeafScratch,
     rows: Rows,
     merge_table: Vec<u32>,
+    /// Where the visible region's pieces cross a glossy lobe's horizon ([`ClippedSum`]).
+    horizon_crossings: Vec<Crossing>,
     /// The point's active edges (over the light), before the outlines join them.
     active: usize,
 }
@@ -64,15 +68,20 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
-/// V at `q`, or why it must be counted.
-pub(super) fn visibility(plugin: &Analytic, scene: &Scene, q: &ShadowQuery) -> Result<f32, Fallback> {
+/// V at `q` (and `lobe`'s share, [`super::lobe`]), or why it must be counted.
+pub(super) fn visibility(
+    plugin: &Analytic,
+    scene: &Scene,
+    q: &ShadowQuery,
+    lobe: Option<&GlossyLobe>,
+) -> Result<LobeVisibility, Fallback> {
     let light = plugin.light();
     let point = &q.point;
     // `traced`'s origin for every ray over the geometric tangent plane.
     let origin = offset_origin(point, point.n_geom);
     let shaft = Shaft::new(light, point).ok_or(Fallback::NoShaft)?;
     if scene.shaft_clear(&shaft) && shaft::covers_light(point, origin, light) {
-        return Ok(1.0);
+        return Ok(LobeVisibility::both(1.0));
     }
     let plane = LightPlane::new(light, point.p.as_dvec3(), point.n_shading.as_dvec3());
     let mut domain = [DVec2::ZERO; MAX_DOMAIN];
@@ -82,12 +91,16 @@ pub(super) fn visibility(plugin: &Analytic, scene: &Scene, q: &ShadowQuery) -> R
     }
     let domain = &domain[..m];
     let whole = plane.polygon_sum(domain);
+    // The lobe's plane, where the fit's horizon leaves some of the light above it (a lobe
+    // that misses the light multiplies nothing: its share is V's).
+    let lobe = lobe.map(|l| LobePlane::new(&plane, l));
+    let lobe = lobe.and_then(|l| Some((l, l.convex_sum(domain)?))).filter(|(_, w)| *w != 0.0);
     // The part over the geometric tangent plane is seen from the origin above it; the part
     // under it (the light seen past a smoothed normal) from the origin below, as `traced`
     // aims those samples: each side integrated on its own.
     let ng = point.n_geom.as_dvec3();
     // The exactly integrated part, and what alpha-tested leaves take from it (estimated).
-    let (mut lit, mut leaves, mut by_rows) = (0.0, 0.0, false);
+    let mut sums = SideSums::default();
     for side in Side::both(point, origin, shaft) {
         let mut part = [DVec2::ZERO; MAX_DOMAIN];
         let sign = if side.below { -1.0 } else { 1.0 };
@@ -96,33 +109,65 @@ pub(super) fn visibility(plugin: &Analytic, scene: &Scene, q: &ShadowQuery) -> R
         if m < 3 || (plane.polygon_sum(&part[..m]) / whole).abs() < 1e-13 {
             continue;
         }
-        let sums = side_lit((plugin, scene, q.seed ^ side.below as u64), &plane, &side, &part[..m])?;
-        lit += sums.lit;
-        leaves += sums.leaves;
-        by_rows |= sums.by_rows;
+        let side_sums = side_lit(
+            (plugin, scene, q.seed ^ side.below as u64),
+            (&plane, lobe.as_ref().map(|l| &l.0)),
+            &side,
+            &part[..m],
+        )?;
+        sums.add(&side_sums);
     }
-    // The certificate: the exact part within [0, 1] beyond rounding.
+    let diffuse = share(sums.lit, sums.leaves, whole)?;
+    let glossy = match lobe {
+        Some((_, lobe_whole)) => share(sums.lobe_lit, sums.lobe_leaves, lobe_whole)?,
+        None => diffuse,
+    };
+    if !sums.by_rows {
+        plugin.counters.exact.fetch_add(1, Ordering::Relaxed);
+    }
+    if diffuse == 0.0 {
+        plugin.counters.umbra.fetch_add(1, Ordering::Relaxed);
+    }
+    Ok(LobeVisibility { diffuse, glossy })
+}
+
+/// A share from its sums: the exactly integrated `lit` over `whole`, checked (the
+/// certificate: within [0, 1] beyond rounding), less the leaves' estimate; clamped, as a
+/// sampled V is (the estimate may take a little more than is there).
+fn share(lit: f64, leaves: f64, whole: f64) -> Result<f32, Fallback> {
     let v = lit / whole;
     if !(-1e-9..=1.0 + 1e-9).contains(&v) {
         return Err(Fallback::Certificate);
     }
-    // The leaves' estimate may take a little more than is there: clamped, as a sampled V is.
     let v = v - leaves.copysign(whole) / whole;
-    if !by_rows {
-        plugin.counters.exact.fetch_add(1, Ordering::Relaxed);
-    }
-    if v == 0.0 {
-        plugin.counters.umbra.fetch_add(1, Ordering::Relaxed);
-    }
     Ok(v.clamp(0.0, 1.0) as f32)
 }
 
 /// One side's sums: Lambert's sum over what it sees (`lit`), the leaves' estimated share of
-/// it (`leaves`, positive), and whether rows gave them rather than the arrangement.
+/// it (`leaves`, positive), the same two in a glossy lobe's space, and whether rows gave
+/// them rather than the arrangement.
+#[derive(Default)]
 struct SideSums {
     lit: f64,
     leaves: f64,
+    lobe_lit: f64,
+    lobe_leaves: f64,
     by_rows: bool,
+}
+
+impl SideSums {
+    fn add(&mut self, o: &SideSums) {
+        self.lit += o.lit;
+        self.leaves += o.leaves;
+        self.lobe_lit += o.lobe_lit;
+        self.lobe_leaves += o.lobe_leaves;
+        self.by_rows |= o.by_rows;
+    }
+
+    /// Nothing seen: the lowest depth is hidden.
+    fn hidden(by_rows: bool) -> SideSums {
+        SideSums { by_rows, ..SideSums::default() }
+    }
 }
 
 /// One side of the geometric tangent plane: the point as seen from it (`n_geom` toward its
@@ -152,10 +197,10 @@ impl Side {
 /// Lambert's sum over the part of `part` (a convex polygon of light coordinates, on one side
 /// of the geometric plane) that the side's origin sees through the counted geometry (the
 /// region of lowest depth, or nothing where one ray says that depth is not 0), and the
-/// estimated sum alpha-tested leaves take from it (positive).
+/// estimated sum alpha-tested leaves take from it (positive); and both in `lobe`'s space.
 fn side_lit(
     (plugin, scene, seed): (&Analytic, &Scene, u64),
-    plane: &LightPlane,
+    (plane, lobe): (&LightPlane, Option<&LobePlane>),
     side: &Side,
     part: &[DVec2],
 ) -> Result<SideSums, Fallback> {
@@ -166,7 +211,7 @@ fn side_lit(
         gather(plugin, scene, side, &frame, s)?;
         let c = &plugin.counters;
         if s.active > MAX_ACTIVE_EDGES {
-            return side_by_rows((plugin, scene, seed), plane, side, part, s);
+            return side_by_rows((plugin, scene, seed), (plane, lobe), side, part, s);
         }
         let arr = &mut s.arrangement;
         if arr.build(part, &s.segments).is_err() {
@@ -175,30 +220,39 @@ fn side_lit(
             // lone end: rows need no topology beyond each row's sorted crossings, and check
             // that each row closes.
             c.arrangement_failed.fetch_add(1, Ordering::Relaxed);
-            return side_by_rows((plugin, scene, seed), plane, side, part, s);
+            return side_by_rows((plugin, scene, seed), (plane, lobe), side, part, s);
         }
         let (crossings, pieces) = arr.sizes();
         c.crossings.fetch_add(crossings as u64, Ordering::Relaxed);
         c.pieces.fetch_add(pieces as u64, Ordering::Relaxed);
         let flags = &plugin.counting.occluders().edges.flags;
         if lowest_is_hidden((plugin, scene), side, (&s.outlines, &s.corners), (arr.target, arr.second))? {
-            return Ok(SideSums { lit: 0.0, leaves: 0.0, by_rows: false });
+            return Ok(SideSums::hidden(false));
         }
         let mut lit = 0.0;
         let has_leaves = s.edges.regions.iter().any(|r| flags[r.slot as usize] & ALPHA != 0);
         s.lit.clear();
+        let mut lobe_sum = lobe.map(|l| ClippedSum::new(l, &mut s.horizon_crossings));
         arr.boundary_of(arr.min_rel, |a, b| {
             lit += plane.edge_term(a, b);
+            if let Some(sum) = lobe_sum.as_mut() {
+                sum.piece(a, b);
+            }
             if has_leaves {
                 s.lit.push(a, b);
             }
         });
+        let lobe_lit = match lobe_sum {
+            Some(sum) => sum.finish().ok_or(Fallback::Inconsistent)?,
+            None => 0.0,
+        };
         if has_leaves {
             s.lit.finish();
             let leaves = leaves_of(plugin, side, &s.edges.regions);
+            let planes = Planes { cosine: plane, lobe: lobe.map(|l| &l.plane) };
             let (hidden, tests) = hidden_by_leaves(
                 scene,
-                plane,
+                planes,
                 (&leaves, &s.lit),
                 (part, &mut s.leaves),
                 (LEAF_STRATA_PER_SAMPLE * plugin.samples, seed),
@@ -206,17 +260,17 @@ fn side_lit(
             .ok_or(Fallback::Alpha)?;
             c.alpha_points.fetch_add(1, Ordering::Relaxed);
             c.alpha_tests.fetch_add(tests, Ordering::Relaxed);
-            return Ok(SideSums { lit, leaves: hidden, by_rows: false });
+            return Ok(SideSums { lit, leaves: hidden[0], lobe_lit, lobe_leaves: hidden[1], by_rows: false });
         }
-        Ok(SideSums { lit, leaves: 0.0, by_rows: false })
+        Ok(SideSums { lit, lobe_lit, ..SideSums::default() })
     })
 }
 
 /// [`side_lit`] by rows, where the arrangement would cost too much (many active edges) or
-/// fails: the lit sum from the rows' share of the part's exact sum.
+/// fails: the lit sums from the rows' shares of the part's exact sums.
 fn side_by_rows(
     (plugin, scene, seed): (&Analytic, &Scene, u64),
-    plane: &LightPlane,
+    (plane, lobe): (&LightPlane, Option<&LobePlane>),
     side: &Side,
     part: &[DVec2],
     s: &mut Scratch,
@@ -230,21 +284,27 @@ fn side_by_rows(
     c.row_crossings.fetch_add(s.rows.crossings() as u64, Ordering::Relaxed);
     c.rows_points.fetch_add(1, Ordering::Relaxed);
     if lowest_is_hidden((plugin, scene), side, (&s.outlines, &s.corners), (share.target, share.second))? {
-        return Ok(SideSums { lit: 0.0, leaves: 0.0, by_rows: true });
+        return Ok(SideSums::hidden(true));
     }
-    let mut hidden = 0.0;
+    let mut hidden = [0.0; 2];
     if s.edges.regions.iter().any(|r| flags[r.slot as usize] & ALPHA != 0) {
         let leaves = leaves_of(plugin, side, &s.edges.regions);
+        let planes = Planes { cosine: plane, lobe: lobe.map(|l| &l.plane) };
         let (h, tests) =
-            hidden_on_rows(scene, (plane, &leaves), (&s.rows, share.min), (ROW_CELLS, seed), &mut s.leaves);
+            hidden_on_rows(scene, (planes, &leaves), (&s.rows, share.min), (ROW_CELLS, seed), &mut s.leaves);
         hidden = h;
         c.alpha_points.fetch_add(1, Ordering::Relaxed);
         c.alpha_tests.fetch_add(tests, Ordering::Relaxed);
     }
+    let lobe_lit = match lobe {
+        Some(l) => l.convex_sum(part).unwrap_or(0.0) * s.rows.lobe_share(l, share.min, hidden[1]),
+        None => 0.0,
+    };
     Ok(SideSums {
-        lit: plane.polygon_sum(part) * s.rows.share(plane, share.min, hidden),
-        leaves: 0.0,
+        lit: plane.polygon_sum(part) * s.rows.share(plane, share.min, hidden[0]),
+        lobe_lit,
         by_rows: true,
+        ..SideSums::default()
     })
 }
 

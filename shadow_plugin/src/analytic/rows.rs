@@ -13,6 +13,7 @@
 //! close fails the point ([`Failure::Inconsistent`]), as an arrangement's loop would.
 
 use super::lambert::LightPlane;
+use super::lobe::LobePlane;
 use super::segment::{Failure, Segment, from_order_key, order_key};
 use glam::DVec2;
 use renderer::util::random::{mix64, stream_seed};
@@ -272,6 +273,28 @@ impl Rows {
         for &(j, a, b, d) in &self.intervals {
             if d == level {
                 seen += plane.row_integral(self.ys[j as usize], a, b);
+            }
+        }
+        if whole > 0.0 { (seen / whole).clamp(0.0, 1.0) } else { 0.0 }
+    }
+
+    /// [`Rows::share`] for a glossy lobe: its row integrals in the lobe's space, each row
+    /// and interval cut to the fit's horizon ([`LobePlane::row_range`]), `hidden` in the
+    /// same units.
+    pub(super) fn lobe_share(&self, lobe: &LobePlane, level: i32, hidden: f64) -> f64 {
+        let (mut seen, mut whole) = (-hidden, 0.0);
+        let cut = |y: f64, a: f64, b: f64| {
+            let (lo, hi) = lobe.row_range(y);
+            let (a, b) = (a.max(lo), b.min(hi));
+            if a < b { lobe.plane.row_integral(y, a, b) } else { 0.0 }
+        };
+        for (j, &y) in self.ys.iter().enumerate() {
+            let [(x0, _), (x1, _)] = self.ends[j];
+            whole += cut(y, x0, x1);
+        }
+        for &(j, a, b, d) in &self.intervals {
+            if d == level {
+                seen += cut(self.ys[j as usize], a, b);
             }
         }
         if whole > 0.0 { (seen / whole).clamp(0.0, 1.0) } else { 0.0 }

@@ -9,6 +9,7 @@ use glam::{DVec2, Vec3};
 use renderer::geometry::point::ShadingPoint;
 use renderer::geometry::ray_origin::offset_origin;
 use renderer::geometry::shaft::{self, Shaft};
+use renderer::interface::lobe::{GlossyLobe, LobeTally, LobeVisibility};
 use renderer::methods::sample_stream::{LightSample, PointSamples};
 use renderer::{RectLight, Scene, ShadowQuery};
 use std::sync::atomic::Ordering;
@@ -330,9 +331,9 @@ fn test_mixed(
 fn count_cells(
     plugin: &Silhouette,
     scene: &Scene,
-    samples: &PointSamples,
+    (samples, lobe): (&PointSamples, Option<&GlossyLobe>),
     s: &mut Scratch,
-) -> Result<Option<f32>, Fallback> {
+) -> Result<Option<LobeVisibility>, Fallback> {
     let r = reference(&s.edges.active)?;
     let (nx, ny) = samples.strata();
     let (nx, ny, cells) = (nx as usize, ny as usize, (nx * ny) as usize);
@@ -411,9 +412,36 @@ fn count_cells(
     // the others by `wholly_above`'s margin) and the strata are not warped: `weight_at`.
     // A cell some edge tested holds its sample's coordinates already: no second draw.
     let (drawn, a, b) = (&s.drawn, &s.a, &s.b);
-    let weight =
-        |k: usize| if drawn[k] { samples.share().weight_at(a[k], b[k]) } else { samples.weight_at(k as u32) };
-    Ok(Some(share(samples, &s.lit, cells as u32, weight)))
+    let coords = |k: usize| if drawn[k] { (a[k], b[k]) } else { samples.plain_coords(k as u32) };
+    let weight = |k: usize| {
+        let (a, b) = coords(k);
+        samples.share().weight_at(a, b)
+    };
+    let diffuse = share(samples, &s.lit, cells as u32, weight);
+    let glossy = lobe.map(|lobe| {
+        lobe_share((&s.lit, cells as u32), diffuse, |k| {
+            let (a, b) = coords(k);
+            let target = samples.light().point(a, b);
+            samples.share().weight_at(a, b) * lobe.factor(target - samples.query().point.p) as f64
+        })
+    });
+    Ok(Some(LobeVisibility { diffuse, glossy: glossy.unwrap_or(diffuse) }))
+}
+
+/// A glossy lobe's share from the counted samples' verdicts (bit k of `open`: sample k
+/// unblocked), every one weighed by `weighted(k)` (its weight times the lobe's factor): the
+/// plain ratio ([`LobeTally`]), weighed only where some are blocked and some are not.
+fn lobe_share((open, counted): (&[u64], u32), diffuse: f32, mut weighted: impl FnMut(usize) -> f64) -> f32 {
+    let bit = |k: usize| open[k / 64] >> (k % 64) & 1 != 0;
+    let visible = (0..counted as usize).filter(|&k| bit(k)).count();
+    if visible == 0 || visible == counted as usize {
+        return if visible == 0 { 0.0 } else { 1.0 };
+    }
+    let mut tally = LobeTally::default();
+    for k in 0..counted as usize {
+        tally.add(weighted(k), bit(k));
+    }
+    tally.share(diffuse)
 }
 
 /// Verdicts packed into bit words (bit k: sample k unblocked), a register word at a time: a
@@ -465,21 +493,21 @@ fn share(samples: &PointSamples, open: &[u64], counted: u32, weight: impl FnMut(
 pub(super) fn count(
     plugin: &Silhouette,
     scene: &Scene,
-    q: &ShadowQuery,
+    (q, lobe): (&ShadowQuery, Option<&GlossyLobe>),
     samples: &PointSamples,
-) -> Result<f32, Fallback> {
+) -> Result<LobeVisibility, Fallback> {
     SCRATCH.with(|cell| {
         let s = &mut *cell.borrow_mut();
         let light = plugin.light();
         let sides = Side::both(q, samples);
         let gathered = wholly_above(light, &sides[0], samples.warped());
         if gathered && let Some(v) = one_ray(plugin, scene, &sides[0], samples, s)? {
-            return Ok(v);
+            return Ok(LobeVisibility::both(v));
         }
         if gathered
             && samples.plain_grid()
             && s.edges.regions.is_empty()
-            && let Some(v) = count_cells(plugin, scene, samples, s)?
+            && let Some(v) = count_cells(plugin, scene, (samples, lobe), s)?
         {
             plugin.counters.points_by_cell.fetch_add(1, Ordering::Relaxed);
             return Ok(v);
@@ -488,7 +516,7 @@ pub(super) fn count(
         let mut rays = 0u64;
         let lit = relative_counts(plugin, scene, sides, samples, s, &mut rays, gathered)?;
         if s.samples.is_empty() {
-            return Ok(1.0);
+            return Ok(LobeVisibility::both(1.0));
         }
         let c = &plugin.counters;
         let mut uncertain = 0u64;
@@ -511,7 +539,16 @@ pub(super) fn count(
         }
         c.rays.fetch_add(rays, Ordering::Relaxed);
         c.samples_uncertain.fetch_add(uncertain, Ordering::Relaxed);
-        Ok(share(samples, &s.lit, s.samples.len() as u32, |k| samples.weight(&s.samples[k])))
+        let counted = s.samples.len() as u32;
+        let diffuse = share(samples, &s.lit, counted, |k| samples.weight(&s.samples[k]));
+        let p = q.point.p;
+        let glossy = lobe.map(|lobe| {
+            lobe_share((&s.lit, counted), diffuse, |k| {
+                let x = &s.samples[k];
+                samples.weight(x) * lobe.factor(x.target - p) as f64
+            })
+        });
+        Ok(LobeVisibility { diffuse, glossy: glossy.unwrap_or(diffuse) })
     })
 }
 
