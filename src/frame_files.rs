@@ -4,7 +4,8 @@
 use crate::cli_error::{CliError, OutputError};
 use crate::output::StagedFiles;
 use crate::profile;
-use renderer::Frame;
+use glam::Vec3;
+use renderer::{Frame, SurfaceAovs};
 use std::path::{Path, PathBuf};
 
 /// A frame's pixels as the outputs write them: a whole render's, or a merge's tiles'.
@@ -14,6 +15,42 @@ pub struct Pixels<'a> {
     pub radiance: &'a [glam::Vec3],
     /// Per light, as [`renderer::Frame::visibility`].
     pub visibility: &'a [Vec<f32>],
+    /// The primary hits' surface (with `--aov`).
+    pub surface: Option<&'a SurfaceAovs>,
+}
+
+/// The surface AOVs' files beside `PATH.png` (`PATH.<name>.exr`), in the order tiles digest
+/// them, and whether each is a colour (RGB) or one value (every channel equal).
+pub const SURFACE_LAYERS: [(&str, bool); 4] =
+    [("base_color", true), ("metallic", false), ("roughness", false), ("normal", true)];
+
+/// Surface AOV `k` of [`SURFACE_LAYERS`] as RGB pixels.
+pub fn surface_layer(s: &SurfaceAovs, k: usize) -> Vec<Vec3> {
+    let grey = |v: &[f32]| v.iter().map(|&x| Vec3::splat(x)).collect();
+    match k {
+        0 => s.base_color.clone(),
+        1 => grey(&s.metallic),
+        2 => grey(&s.roughness),
+        _ => s.normal.clone(),
+    }
+}
+
+/// Stages the surface AOVs of `s` beside `png` (`rows` rows of `width`). Returns their paths.
+pub fn stage_surface(
+    png: &Path,
+    [width, rows]: [u32; 2],
+    s: &SurfaceAovs,
+    staged: &mut StagedFiles,
+) -> Result<Vec<PathBuf>, CliError> {
+    let mut outputs = Vec::new();
+    for (k, (name, _)) in SURFACE_LAYERS.iter().enumerate() {
+        let path = png.with_extension(format!("{name}.exr"));
+        staged
+            .exr(&path, width, rows, &surface_layer(s, k))
+            .map_err(|e| OutputError::new(png, "--out", e))?;
+        outputs.push(path);
+    }
+    Ok(outputs)
 }
 
 /// Creates the folder `png` goes in.
@@ -25,8 +62,8 @@ pub fn create_output_folder(png: &Path) -> Result<(), CliError> {
     Ok(())
 }
 
-/// Stages the PNG, the EXR beside it and, with `aov`, each light's visibility EXR and PNG,
-/// after creating the output folder. Returns their paths in that order.
+/// Stages the PNG, the EXR beside it and, with `aov`, each light's visibility EXR and PNG and
+/// the surface AOVs, after creating the output folder. Returns their paths in that order.
 pub fn stage_images(
     png: &Path,
     px: &Pixels,
@@ -60,6 +97,9 @@ pub fn stage_images(
                 .collect();
             staged.png(&path, width, height, &grey).map_err(io)?;
             outputs.push(path);
+        }
+        if let Some(surface) = px.surface {
+            outputs.extend(stage_surface(png, [width, height], surface, staged)?);
         }
     }
     Ok(outputs)

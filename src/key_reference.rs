@@ -1,5 +1,5 @@
 //! The key reference, docs/scene-keys.md, generated from the registry: the head below (the
-//! `[shadows]` table, its list of methods filled in), then a section per registered method,
+//! `[materials]` and `[shadows]` tables, the list of methods filled in), then a section per registered method,
 //! its heading generated and its text the method's own ([`renderer::MethodEntry::KEYS_DOC`],
 //! in its folder). `tests/scene_keys.rs` fails when the file differs from [`page`]
 //! (`PENUMBRA_BLESS=1` rewrites it) and when a method's section and its parameters disagree
@@ -10,9 +10,10 @@ use std::collections::BTreeMap;
 
 /// The page up to the methods' sections; `{methods}` is replaced by the registered names,
 /// `{retired}` by the retired ones ([`crate::methods::RETIRED`]).
-const HEAD: &str = r#"# Scene file keys: `[shadows]` and each method's table
+const HEAD: &str = r#"# Scene file keys: `[materials]`, `[shadows]` and each method's table
 
-Every key a scene file's `[shadows]` table and its method tables accept, with its default.
+Every key a scene file's `[materials]` and `[shadows]` tables and the method tables accept,
+with its default.
 This page is generated from the method registry (`src/methods.rs`): each method's section
 is its own text, in its folder (`keys.md` beside a plugin's code), and `tests/scene_keys.rs`
 holds each section against the method's parameter struct: a key missing there, a key there
@@ -28,6 +29,15 @@ contract's example (docs/guide.md, "Scene files"), and so is `[integrator]`:
 | key | type | default | meaning |
 |---|---|---|---|
 | `max_depth` (`[integrator]`) | int | `5` | longest light path, counted as Mitsuba 3 counts it: 2 = direct light only, 5 = three indirect bounces; 2 to 64; `--max-depth` overrides it |
+
+## `[materials]`
+
+How the glTF materials are shaded (`renderer::load::scene_file::MaterialsDesc`; held to its
+struct by `tests/scene_keys.rs` as the method tables are).
+
+| key | type | default | meaning |
+|---|---|---|---|
+| `shading` | string | `"gltf"` | `"gltf"`: as the files define them (metallic-roughness read, normal textures bend the shading normal, which the light's irradiance and every shadow method's horizon use; the surface is still shaded as a two-sided Lambertian of its base colour, no glossy BRDF yet); `"diffuse"`: every surface a two-sided Lambertian of its base colour with its interpolated normal, the renders of before materials were read, byte for byte; `--shading` overrides it |
 
 ## `[shadows]`
 

@@ -4,7 +4,7 @@
 //! committed together: a bad set of tiles writes nothing.
 
 use crate::cli_error::{CliError, OutputError};
-use crate::frame_files::{Pixels, stage_images, stage_profile};
+use crate::frame_files::{Pixels, SURFACE_LAYERS, stage_images, stage_profile};
 use crate::output::StagedFiles;
 use crate::run_report::{ProfileTotals, RunReport, TileInfo, TileRun, Timings};
 use crate::tile::PixelDigest;
@@ -12,7 +12,7 @@ use glam::Vec3;
 
 use renderer::load::scene_file::MAX_PRIMARY_SAMPLES;
 use renderer::util::pixel_cost::{PixelCost, Work};
-use renderer::{FrameTally, SceneError};
+use renderer::{FrameTally, SceneError, SurfaceAovs};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -41,6 +41,8 @@ struct Tile {
 struct Assembled {
     radiance: Vec<Vec3>,
     visibility: Vec<Vec<f32>>,
+    /// With `--aov`: the primary hits' surface.
+    surface: Option<SurfaceAovs>,
     /// With `--profile`: each pixel's cost, and whether its primary rays all missed.
     costs: Option<(Vec<PixelCost>, Vec<bool>)>,
 }
@@ -71,7 +73,13 @@ pub fn run_merge(args: &MergeArgs) -> Result<RunReport, CliError> {
     let first = &tiles[0];
     let (width, height) = (first.report.width, first.report.height);
     let mut staged = StagedFiles::default();
-    let px = Pixels { width, height, radiance: &pixels.radiance, visibility: &pixels.visibility };
+    let px = Pixels {
+        width,
+        height,
+        radiance: &pixels.radiance,
+        visibility: &pixels.visibility,
+        surface: pixels.surface.as_ref(),
+    };
     let mut outputs = stage_images(png, &px, first.info.aov, &mut staged)?;
     if let Some((costs, missed)) = &pixels.costs {
         outputs.extend(stage_profile(png, [width, height], costs, missed, &mut staged)?);
@@ -204,7 +212,7 @@ fn prepared_alike(t: &Tile, first: &Tile) -> Result<(), SceneError> {
 
 /// What two tiles of one frame share: the settings a user can read, then the fingerprint of
 /// the files behind them.
-fn identity(t: &Tile) -> [(&'static str, String); 14] {
+fn identity(t: &Tile) -> [(&'static str, String); 15] {
     let r = &t.report;
     [
         ("method", r.method.clone()),
@@ -213,6 +221,7 @@ fn identity(t: &Tile) -> [(&'static str, String); 14] {
         ("height", r.height.to_string()),
         ("spp", r.spp.to_string()),
         ("max_depth", r.max_depth.to_string()),
+        ("shading", r.shading.clone()),
         ("seed", r.seed.to_string()),
         ("lights", r.lights.to_string()),
         ("triangles", r.triangles.to_string()),
@@ -231,6 +240,7 @@ fn assemble(tiles: &[Tile]) -> Result<Assembled, SceneError> {
     let mut out = Assembled {
         radiance: Vec::with_capacity(pixels),
         visibility: Vec::new(),
+        surface: first.info.aov.then(SurfaceAovs::default),
         costs: first.info.profile.then(|| (Vec::with_capacity(pixels), Vec::with_capacity(pixels))),
     };
     for t in tiles {
@@ -257,6 +267,9 @@ fn assemble(tiles: &[Tile]) -> Result<Assembled, SceneError> {
             }
             out.visibility[k].extend(layer);
         }
+        if let Some(surface) = &mut out.surface {
+            read_surface(base, size, surface, &mut digest)?;
+        }
         if let Some((costs, missed)) = &mut out.costs {
             let path = base.with_extension("cost.exr");
             let mut c =
@@ -280,6 +293,32 @@ fn assemble(tiles: &[Tile]) -> Result<Assembled, SceneError> {
         }
     }
     Ok(out)
+}
+
+/// Appends a tile's surface AOVs (beside its report `base`, `size` pixels) to `surface`,
+/// digesting each as [`crate::tile::digest_surface`] does.
+fn read_surface(
+    base: &Path,
+    size: (usize, usize),
+    surface: &mut SurfaceAovs,
+    digest: &mut PixelDigest,
+) -> Result<(), SceneError> {
+    for (name, rgb) in SURFACE_LAYERS {
+        let path = base.with_extension(format!("{name}.exr"));
+        let names: &[&str] = if rgb { &["R", "G", "B"] } else { &["R"] };
+        let c: Vec<Vec<f32>> = read_channels(&path, size, names)?.into_iter().map(Channel::f32s).collect();
+        if rgb {
+            let pixels: Vec<Vec3> = (0..c[0].len()).map(|i| Vec3::new(c[0][i], c[1][i], c[2][i])).collect();
+            digest.floats(pixels.iter().flat_map(|p| p.to_array()));
+            let out = if name == "base_color" { &mut surface.base_color } else { &mut surface.normal };
+            out.extend(pixels);
+        } else {
+            digest.floats(c[0].iter().copied());
+            let out = if name == "metallic" { &mut surface.metallic } else { &mut surface.roughness };
+            out.extend(&c[0]);
+        }
+    }
+    Ok(())
 }
 
 /// The named channels of `path`'s first layer, which must be `size` pixels.

@@ -11,7 +11,9 @@ use crate::run_report::{RunReport, Timings};
 use crate::shadows_config::ShadowsConfig;
 use crate::threads::thread_pool_traced;
 use crate::{flags, memory, methods, profile, run_report, tile};
-use renderer::{Frame, KeepInstances, LoadOptions, RenderSettings, Scene, SceneError, SceneFile};
+use renderer::{
+    Frame, KeepInstances, LoadOptions, RenderSettings, Scene, SceneError, SceneFile, SurfaceAovs,
+};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -27,7 +29,10 @@ pub struct RenderArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Also write each light k's visibility: PATH.visibility.<k>.exr (f32, -1 where nothing
-    /// is hit) and PATH.visibility.<k>.png (grey, 8-bit sRGB; misses in blue).
+    /// is hit) and PATH.visibility.<k>.png (grey, 8-bit sRGB; misses in blue); and the
+    /// primary hits' surface: PATH.base_color.exr (linear RGB), PATH.metallic.exr,
+    /// PATH.roughness.exr (grey) and PATH.normal.exr (the shading normal's xyz), each the
+    /// mean over the pixel's samples that hit, 0 where none does.
     #[arg(long)]
     pub aov: bool,
     /// Also write where shading time goes: PATH.cost.exr (per pixel: shading time, rays,
@@ -84,7 +89,7 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
         let options = LoadOptions { memory_limit: memory::available_bytes(), keep };
         let scene = Scene::load_with(&plan.file, &plan.scene_path, options)?;
         let loaded = t_total.elapsed();
-        let frame = render_frame(&plan, &scene, args.seed, args.profile, &progress)?;
+        let (frame, surface) = render_frame(&plan, &scene, (args.seed, args.profile, args.aov), &progress)?;
         let png = &plan.png;
 
         // Outputs: all staged, then committed together.
@@ -93,10 +98,16 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
         let mut staged = StagedFiles::default();
         let outputs = tracing::info_span!("write").in_scope(|| {
             if plan.tile.is_some() {
-                return tile::stage_tile_images(png, &frame, args.aov, &mut staged);
+                return tile::stage_tile_images(png, &frame, surface.as_ref(), &mut staged);
             }
             let [width, height] = plan.size();
-            let px = Pixels { width, height, radiance: &frame.radiance, visibility: &frame.visibility };
+            let px = Pixels {
+                width,
+                height,
+                radiance: &frame.radiance,
+                visibility: &frame.visibility,
+                surface: surface.as_ref(),
+            };
             let mut outputs = stage_images(png, &px, args.aov, &mut staged)?;
             if let Some(costs) = &frame.costs {
                 let missed = missed_pixels(&frame, costs.len());
@@ -104,10 +115,10 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
             }
             Ok::<_, CliError>(outputs)
         })?;
-        Ok::<_, CliError>((scene, frame, staged, outputs, loaded, t_write))
+        Ok::<_, CliError>((scene, frame, surface, staged, outputs, loaded, t_write))
     });
     progress.finish();
-    let (scene, frame, mut staged, mut outputs, loaded, t_write) = outcome?;
+    let (scene, frame, surface, mut staged, mut outputs, loaded, t_write) = outcome?;
     drop(pool);
     let io = |e: String| OutputError::new(&plan.png, "--out", e);
     // The trace ends here (every span closed) and is staged with the rest: part of `write`.
@@ -121,7 +132,8 @@ pub fn run_render(args: &RenderArgs) -> Result<RenderOutcome, CliError> {
     let phases = Phases { loaded, write: t_write.elapsed(), total: t_total.elapsed() };
     let mut report = build_report(&plan, args.seed, threads, &scene, &frame, &outputs, phases);
     if let Some((spec, fingerprint)) = &plan.tile {
-        report.tile = Some(tile::tile_info(*spec, fingerprint, (args.aov, args.profile), &scene, &frame));
+        let (pixels, aov) = (tile::frame_digest(&frame, surface.as_ref()), args.aov);
+        report.tile = Some(tile::tile_info(*spec, fingerprint, (aov, args.profile, pixels), &scene, &frame));
         // The frame's own warnings wait for the merge: a tile of sky is not a black image.
         report.warnings = scene.warnings.iter().chain(&frame.method_warnings).cloned().collect();
     }
@@ -210,14 +222,14 @@ fn png_path(args: &RenderArgs, scene_path: &Path) -> Result<PathBuf, CliError> {
 }
 
 /// Renders `scene` with one of `plan`'s shadow methods per light, each phase shown on
-/// `progress`.
+/// `progress`; with `aov`, also the surface AOVs of the rows rendered, their pass counted in
+/// the frame's `render` time (it casts primary rays).
 fn render_frame(
     plan: &RenderPlan,
     scene: &Scene,
-    seed: u64,
-    profile: bool,
+    (seed, profile, aov): (u64, bool, bool),
     progress: &PhaseProgress,
-) -> Result<Frame, CliError> {
+) -> Result<(Frame, Option<SurfaceAovs>), CliError> {
     let mut methods: Vec<_> = scene.lights.iter().map(|_| plan.shadows.build()).collect();
     let memory_budget_bytes = memory::memory_budget_bytes()?;
     let [width, height] = plan.size();
@@ -231,8 +243,16 @@ fn render_frame(
         max_depth: plan.file.integrator.max_depth,
     };
     let rows = plan.tile.as_ref().map_or(0..height, |(t, _)| t.rows(height));
-    renderer::render_rows(scene, &mut methods, &settings, rows, &|p| progress.report(p))
-        .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()).into())
+    let mut frame =
+        renderer::render_rows(scene, &mut methods, &settings, rows.clone(), &|p| progress.report(p))
+            .map_err(|e| SceneError::new(&plan.scene_path, "shadows", e.to_string()))?;
+    let surface = aov.then(|| {
+        let t = Instant::now();
+        let surface = renderer::surface_aovs(scene, &settings, rows);
+        frame.render += t.elapsed();
+        surface
+    });
+    Ok((frame, surface))
 }
 
 /// The run's report; `outputs` lists every file written (the report last), `t_total` is
@@ -254,6 +274,7 @@ fn build_report(
         height: plan.file.image.height,
         spp: plan.file.image.spp,
         max_depth: plan.file.integrator.max_depth,
+        shading: plan.file.materials.shading.name().to_string(),
         threads,
         seed,
         lights: scene.lights.len(),

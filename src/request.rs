@@ -42,6 +42,12 @@ pub struct Overrides {
     /// else 5; every scene shipped here sets 2).
     #[arg(long, allow_negative_numbers = true, value_parser = crate::flags::depth_value)]
     pub max_depth: Option<u32>,
+    /// How materials are shaded: `gltf` (as the files define them: normal textures bend the
+    /// shading normal) or `diffuse` (every surface a two-sided Lambertian of its base colour
+    /// with its interpolated normal, the renders of before materials were read); overrides
+    /// `[materials].shading` (default `gltf`).
+    #[arg(long, value_name = "gltf|diffuse")]
+    pub shading: Option<String>,
     /// Code only (no flag): these settings in place of the chosen method's, for studies that
     /// switch what a scene file cannot (a plugin's code-only fields).
     #[arg(skip)]
@@ -66,6 +72,11 @@ impl Overrides {
             whole("image.height", "--height", self.height),
             whole("image.spp", "--spp", self.spp),
             whole("integrator.max_depth", "--max-depth", self.max_depth),
+            self.shading.as_ref().map(|s| Override {
+                key: "materials.shading",
+                source: "--shading",
+                value: toml::Value::String(s.clone()),
+            }),
         ]
         .into_iter()
         .flatten()

@@ -69,6 +69,11 @@ impl ProfileTotals {
     }
 }
 
+/// The shading of reports written before `shading` was reported.
+fn gltf_shading() -> String {
+    "gltf".into()
+}
+
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunReport {
     pub scene: String,
@@ -79,6 +84,10 @@ pub struct RunReport {
     pub spp: u32,
     /// Longest path (2 = direct light only).
     pub max_depth: u32,
+    /// How materials were shaded: `"gltf"` or `"diffuse"` (`[materials] shading`,
+    /// `--shading`).
+    #[serde(default = "gltf_shading")]
+    pub shading: String,
     pub threads: usize,
     pub seed: u64,
     pub lights: usize,

@@ -5,14 +5,14 @@
 //! output is row-major and every pixel a pure function of (scene, settings, seed), so a band
 //! is a contiguous slice of each buffer, and an EXR of the band's scanlines round-trips its
 //! f32 exactly. A tile writes `PATH.exr` (its radiance), with `--aov` each light's
-//! `PATH.visibility.<k>.exr`, with `--profile` `PATH.cost.exr` (plus a `missed.Y` layer: the
+//! `PATH.visibility.<k>.exr` and the surface AOVs, with `--profile` `PATH.cost.exr` (plus a `missed.Y` layer: the
 //! heat map marks misses) and `PATH.trace.json`, and its report `PATH.json`. No PNG: 8-bit
 //! sRGB would lose what the merge needs.
 
 use crate::cli_error::{CliError, OutputError};
 use crate::output::StagedFiles;
 use glam::Vec3;
-use renderer::{Frame, SceneError, SceneFile};
+use renderer::{Frame, SceneError, SceneFile, SurfaceAovs};
 use std::hash::{DefaultHasher, Hasher};
 use std::path::{Path, PathBuf};
 
@@ -80,7 +80,7 @@ pub struct FingerprintInputs<'a> {
 
 /// A hex hash of the scene's files (the scene file, each model's glTF, buffers and images),
 /// the pixel-changing settings (size, spp, depth, seed, method and its settings, samples,
-/// tile count, AOVs) and the program's version. Threads are left out: they change no byte.
+/// material shading, tile count, AOVs) and the program's version. Threads are left out: they change no byte.
 /// Std's SipHash: stable within one build, which is what one farm's tiles share; tiles of
 /// two builds may refuse to merge, the safe side.
 pub fn fingerprint(f: &FingerprintInputs) -> Result<String, CliError> {
@@ -105,6 +105,8 @@ pub fn fingerprint(f: &FingerprintInputs) -> Result<String, CliError> {
         }
     }
     write(f.method.as_bytes());
+    // A flag may change it (`--shading`); the scene file's bytes alone would not say.
+    write(f.file.materials.shading.name().as_bytes());
     let numbers = [f.samples as u64, f.size[0] as u64, f.size[1] as u64, f.size[2] as u64, f.size[3] as u64];
     for v in numbers.into_iter().chain([f.seed, f.count as u64, f.aov as u64, f.profile as u64]) {
         write(&v.to_le_bytes());
@@ -135,12 +137,16 @@ impl PixelDigest {
     }
 }
 
-/// The digest of `frame`'s pixels as [`stage_tile_images`] writes them.
-pub fn frame_digest(frame: &Frame, aov: bool) -> String {
+/// The digest of `frame`'s pixels (and the surface AOVs, `--aov`'s) as
+/// [`stage_tile_images`] writes them.
+pub fn frame_digest(frame: &Frame, surface: Option<&SurfaceAovs>) -> String {
     let mut d = PixelDigest::default();
     d.floats(frame.radiance.iter().flat_map(|c| c.to_array()));
-    for vis in frame.visibility.iter().filter(|_| aov) {
+    for vis in frame.visibility.iter().filter(|_| surface.is_some()) {
         d.floats(vis.iter().copied());
+    }
+    if let Some(s) = surface {
+        digest_surface(&mut d, s);
     }
     if let Some(costs) = &frame.costs {
         d.floats(costs.iter().map(|c| c.time_s));
@@ -153,12 +159,24 @@ pub fn frame_digest(frame: &Frame, aov: bool) -> String {
     d.hex()
 }
 
+/// Adds the surface AOVs to a digest, as their files hold them (RGB or one channel).
+pub fn digest_surface(d: &mut PixelDigest, s: &SurfaceAovs) {
+    for (k, (_, rgb)) in crate::frame_files::SURFACE_LAYERS.iter().enumerate() {
+        let layer = crate::frame_files::surface_layer(s, k);
+        if *rgb {
+            d.floats(layer.iter().flat_map(|c| c.to_array()));
+        } else {
+            d.floats(layer.iter().map(|c| c.x));
+        }
+    }
+}
+
 /// Stages a tile's pixels beside `png` (which is not written): the radiance EXR and, as
-/// asked, the visibility AOVs and the cost layers. Returns their paths.
+/// asked, the AOVs (`surface` given with `--aov`) and the cost layers. Returns their paths.
 pub fn stage_tile_images(
     png: &Path,
     frame: &Frame,
-    aov: bool,
+    surface: Option<&SurfaceAovs>,
     staged: &mut StagedFiles,
 ) -> Result<Vec<PathBuf>, CliError> {
     let (width, rows) = (frame.width, frame.rows.len() as u32);
@@ -170,13 +188,14 @@ pub fn stage_tile_images(
     let io = |e: String| OutputError::new(png, "--out", e);
     staged.exr(&exr, width, rows, &frame.radiance).map_err(io)?;
     let mut outputs = vec![exr];
-    if aov {
+    if let Some(surface) = surface {
         for (k, vis) in frame.visibility.iter().enumerate() {
             let path = png.with_extension(format!("visibility.{k}.exr"));
             let rgb: Vec<Vec3> = vis.iter().map(|&v| Vec3::splat(v)).collect();
             staged.exr(&path, width, rows, &rgb).map_err(io)?;
             outputs.push(path);
         }
+        outputs.extend(crate::frame_files::stage_surface(png, [width, rows], surface, staged)?);
     }
     if let Some(costs) = &frame.costs {
         let path = png.with_extension("cost.exr");
@@ -189,11 +208,12 @@ pub fn stage_tile_images(
     Ok(outputs)
 }
 
-/// The `tile` section of a tile's report.
+/// The `tile` section of a tile's report; `pixels` is the digest of its pixels
+/// ([`frame_digest`]).
 pub fn tile_info(
     spec: TileSpec,
     fingerprint: &str,
-    (aov, profile): (bool, bool),
+    (aov, profile, pixels): (bool, bool, String),
     scene: &renderer::Scene,
     frame: &Frame,
 ) -> crate::run_report::TileInfo {
@@ -202,7 +222,7 @@ pub fn tile_info(
         count: spec.count,
         rows: [frame.rows.start, frame.rows.end],
         fingerprint: fingerprint.to_string(),
-        pixels: frame_digest(frame, aov),
+        pixels,
         aov,
         profile,
         prepare_counters: frame.prepare_counters.clone(),

@@ -334,6 +334,7 @@ fn analytic_leaves_match_lambert_within_their_noise() {
             wrap_t: Wrap::ClampToEdge,
             filter: Filter::Nearest,
             transform: glam::Affine2::IDENTITY,
+            tex_coord: 0,
         });
         g.materials.push(leaf);
         let material = g.materials.len() as u32 - 1;

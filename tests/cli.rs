@@ -29,7 +29,16 @@ fn same_bytes_with_one_and_two_threads() {
             penumbra(&["render", "s.toml", "--threads", threads, "--aov", "--spp", "2", "--out", &out], &dir);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
-    for file in ["img.png", "img.exr", "img.visibility.0.exr", "img.visibility.0.png"] {
+    for file in [
+        "img.png",
+        "img.exr",
+        "img.visibility.0.exr",
+        "img.visibility.0.png",
+        "img.base_color.exr",
+        "img.metallic.exr",
+        "img.roughness.exr",
+        "img.normal.exr",
+    ] {
         let a = std::fs::read(dir.join("t1").join(file)).unwrap();
         let b = std::fs::read(dir.join("t2").join(file)).unwrap();
         assert!(a == b, "{file} differs between 1 and 2 threads");

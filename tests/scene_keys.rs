@@ -7,6 +7,7 @@ use penumbra::methods::METHODS;
 use penumbra::request::{Overrides, Request};
 use penumbra::shadows_config::ShadowsConfig;
 use renderer::interface::method::default_table;
+use renderer::load::scene_file::MaterialsDesc;
 use renderer::{MethodEntry, MethodParams, SceneError, TracedParams, parse_method};
 use shadow_plugin::{
     Blend, DepthMarchParams, EdgeTableParams, Heightfield, PcssParams, PublishedParams, Reading,
@@ -74,7 +75,14 @@ fn the_key_reference_lists_every_key_with_its_default() {
     let defaults = ShadowsConfig::default();
     assert_eq!(top["method"], format!("\"{}\"", defaults.name()));
     assert_eq!(top["samples"], defaults.samples.to_string());
-    assert_eq!(docs.len(), METHODS.len() + 1, "a section for [shadows] and one per method");
+    // `[materials]`: every key of its struct with its default, and no other.
+    let materials: BTreeMap<String, String> = toml::Table::try_from(MaterialsDesc::default())
+        .unwrap()
+        .into_iter()
+        .map(|(k, v)| (k, v.to_string()))
+        .collect();
+    assert_eq!(docs["materials"], materials, "[materials]: docs/scene-keys.md against MaterialsDesc");
+    assert_eq!(docs.len(), METHODS.len() + 2, "a section for [materials], [shadows] and one per method");
 }
 
 /// The page is generated from the registry: `PENUMBRA_BLESS=1` rewrites it, else a stale one

@@ -94,6 +94,10 @@ fn tiles_merge_to_the_single_renders_bytes_for_every_method_and_depth() {
         "visibility.1.exr",
         "visibility.1.png",
         "visibility.2.exr",
+        "base_color.exr",
+        "metallic.exr",
+        "roughness.exr",
+        "normal.exr",
     ];
     for method in penumbra::methods::METHODS.iter().map(|m| m.name) {
         for max_depth in [2, 5] {
@@ -272,8 +276,9 @@ fn damaged_tiles_name_the_file_on_one_line_exit_2_and_write_nothing() {
         let exr = read(&t[exr_of].with_extension("exr"));
         std::fs::write(json.with_extension("exr"), &exr[..if cut { exr.len() / 2 } else { exr.len() }])
             .unwrap();
-        for k in 0..3 {
-            let aov = format!("visibility.{k}.exr");
+        let visibility = (0..3).map(|k| format!("visibility.{k}.exr"));
+        let surface = ["base_color", "metallic", "roughness", "normal"].map(|n| format!("{n}.exr"));
+        for aov in visibility.chain(surface) {
             std::fs::copy(t[exr_of].with_extension(&aov), json.with_extension(&aov)).unwrap();
         }
         json

@@ -15,9 +15,12 @@ pub mod util;
 
 pub use geometry::camera::Camera;
 pub use geometry::light::RectLight;
+pub use geometry::material::Shading;
 pub use geometry::point::ShadingPoint;
 pub use geometry::scene::{Scene, SurfaceHit};
 pub use geometry::shaft::Shaft;
+pub use geometry::surface::Surface;
+pub use integrator::aov::{SurfaceAovs, surface_aovs};
 pub use integrator::render::{Frame, RenderSettings, render, render_rows};
 pub use integrator::tally::FrameTally;
 pub use interface::entry::MethodEntry;

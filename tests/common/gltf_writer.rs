@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 
 /// glTF component types.
 const FLOAT: u32 = 5126;
+const UNSIGNED_BYTE: u32 = 5121;
 const UNSIGNED_SHORT: u32 = 5123;
 const UNSIGNED_INT: u32 = 5125;
 /// bufferView targets.
@@ -150,6 +151,17 @@ impl GltfBuilder {
     pub fn texcoords(&mut self, uv: &[[f32; 2]]) -> usize {
         let flat: Vec<f32> = uv.iter().flatten().copied().collect();
         self.float_accessor(&flat, "VEC2", json!({}))
+    }
+
+    /// A normalized unsigned-byte VEC4 accessor (COLOR_0 as 8-bit RGBA).
+    pub fn colors_u8(&mut self, c: &[[u8; 4]]) -> usize {
+        let bytes: Vec<u8> = c.iter().flatten().copied().collect();
+        let view = self.view(&bytes, ARRAY_BUFFER);
+        push(
+            &mut self.accessors,
+            json!({"bufferView": view, "componentType": UNSIGNED_BYTE, "normalized": true,
+                   "count": c.len(), "type": "VEC4"}),
+        )
     }
 
     pub fn indices_u16(&mut self, i: &[u16]) -> usize {

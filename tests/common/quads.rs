@@ -109,6 +109,7 @@ pub fn render_visibility_with(
             // Direct light only: these renders hold the visibility of what the camera sees, and
             // the methods' counters are then those of the primary hits alone.
             max_depth: Some(2),
+            shading: None,
         },
         seed,
         out: Some(out.clone()),

@@ -18,6 +18,8 @@ pub const READERS: &[&str] = &[
     "silhouette::shared_scenes_with_kept_instances_agree_with_the_bvh",
     "bench::a_changed_model_buffer_renders_the_truth_anew",
     "instances::metal_rough_spheres_kept_answers_as_flattened",
+    "materials::generated_tangents_agree_with_flight_helmets_own",
+    "material_shading::diffuse_renders_as_gltf_without_normal_maps_on_every_shared_scene",
 ];
 
 /// Where to read how to get the scenes.

@@ -13,6 +13,7 @@
 //! Cost (measured on flight-helmet, metal-rough-spheres and toy-car, every triangle placed on
 //! the fly): `traced` renders 14-31% slower than from stored triangles.
 
+use crate::geometry::attributes::CornerExtras;
 use crate::geometry::instances::{Placing, PrimitiveData};
 use glam::{DMat3, DMat4, DVec3, Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
@@ -126,6 +127,17 @@ impl InstancedScene {
     pub fn normals(&self, p: &Placed, t: &PlacedTriangle) -> Option<[Vec3; 3]> {
         let data = &self.meshes[p.mesh as usize].primitives[t.primitive as usize];
         p.placing.normals(data.normals.as_deref(), t.corners)
+    }
+
+    /// The extra attributes of a placed triangle (second coordinates, COLOR_0, tangents), as
+    /// the flattened scene stores them ([`PrimitiveData::extras`]).
+    pub fn extras(&self, p: &Placed, t: &PlacedTriangle) -> CornerExtras {
+        self.meshes[p.mesh as usize].primitives[t.primitive as usize].extras(&p.placing, t.corners)
+    }
+
+    /// Whether any stored mesh has tangents (a normal-mapped kept instance).
+    pub fn any_tangents(&self) -> bool {
+        self.meshes.iter().any(|m| m.primitives.iter().any(|d| d.tangents.is_some()))
     }
 
     /// The triangles `ray` may meet, per instance whose bounds it meets: `test(placed, slot,

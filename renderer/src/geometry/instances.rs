@@ -7,7 +7,8 @@
 //! of once per copy: one transform maps equal positions to equal positions, so a mesh's
 //! welded vertices are welded in every instance of it.
 
-use glam::{DAffine3, DMat3, DMat4, DVec3, Vec3};
+use crate::geometry::attributes::CornerExtras;
+use glam::{DAffine3, DMat3, DMat4, DVec3, Vec2, Vec3, Vec4};
 use std::sync::Arc;
 
 /// A mesh's triangles as welded vertex ids in its own space: corners at bit-identical
@@ -81,8 +82,27 @@ pub struct PrimitiveData {
     pub positions: Vec<[f32; 3]>,
     pub normals: Option<Vec<[f32; 3]>>,
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// The second texture-coordinate set
+    /// ([`crate::geometry::material::Material::second_uv_set`]), where its material reads one.
+    pub uv2: Option<Vec<[f32; 2]>>,
+    /// COLOR_0, linear RGBA, where the file has it and it is not white everywhere.
+    pub colors: Option<Vec<[f32; 4]>>,
+    /// Tangents in the file's space (xyz, and w = +-1 the bitangent's sign), where the
+    /// material has a normal texture: the file's TANGENT, or generated.
+    pub tangents: Option<Vec<[f32; 4]>>,
     /// Per triangle: its corners (the file's winding) into the vertex arrays.
     pub corners: Vec<[u32; 3]>,
+}
+
+impl PrimitiveData {
+    /// The extra attributes of the triangle with corners `c` (already in the placed order,
+    /// [`Placing::corners`]) under `placing`: the flattened scene's and a kept instance's
+    /// alike.
+    pub fn extras(&self, placing: &Placing, c: [u32; 3]) -> CornerExtras {
+        let uv2 = self.uv2.as_ref().map(|t| c.map(|i| Vec2::from(t[i as usize])));
+        let color = self.colors.as_ref().map(|t| c.map(|i| Vec4::from(t[i as usize])));
+        CornerExtras { uv2, color, tangent: placing.tangents(self.tangents.as_deref(), c) }
+    }
 }
 
 /// A node's placement of a mesh kept unflattened (see `Geometry::keep_instances`): the
@@ -172,6 +192,22 @@ impl Placing {
             (self.normal_from_file * DVec3::from(ns[i as usize].map(f64::from))).normalize_or_zero().as_vec3()
         });
         n.iter().all(|v| v.is_finite() && v.length_squared() > 0.5).then_some(n)
+    }
+
+    /// The corners' tangents in world space: xyz through the transform's linear part (a
+    /// tangent is a direction along the surface, and stays orthogonal to the transformed
+    /// normal), unit; w the bitangent's sign, flipped under a mirroring transform (the
+    /// mirror turns the frame's handedness, so N x T turns against the surface's bitangent).
+    /// `None` where the file has none or one does not survive the transform.
+    pub fn tangents(&self, tangents: Option<&[[f32; 4]]>, c: [u32; 3]) -> Option<[Vec4; 3]> {
+        let ts = tangents?;
+        let flip = if self.mirrored { -1.0 } else { 1.0 };
+        let t = c.map(|i| {
+            let [x, y, z, w] = ts[i as usize];
+            let v = (self.affine.matrix3 * DVec3::new(x as f64, y as f64, z as f64)).normalize_or_zero();
+            v.as_vec3().extend(if w < 0.0 { -flip } else { flip })
+        });
+        t.iter().all(|v| v.is_finite() && v.truncate().length_squared() > 0.5).then_some(t)
     }
 }
 

@@ -1,7 +1,8 @@
 //! What the rays meet and how they are cast: the runtime scene and its BVH queries, the
 //! shading point, shafts, the one rule for ray origins and f32 precision, the camera, lights
-//! and their sampling, materials.
+//! and their sampling, materials and the surface they give a hit.
 
+pub mod attributes;
 pub mod camera;
 pub mod horizon_warp;
 pub mod instanced;
@@ -18,4 +19,5 @@ pub mod scene;
 pub mod scene_bvh;
 pub mod shaft;
 mod shaft_plane;
+pub mod surface;
 pub mod watertight;

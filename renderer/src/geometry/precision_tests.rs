@@ -258,6 +258,7 @@ fn raw_scene(tris: &[[Vec3; 3]], light: RectLight) -> Scene {
         origins: vec![crate::geometry::instances::TriangleOrigin::LOOSE; triangles.len()],
         triangles,
         shading,
+        extras: Default::default(),
         meshes: Vec::new(),
         instances: Vec::new(),
         materials: vec![Material::diffuse([0.5; 3])],
@@ -270,6 +271,8 @@ fn raw_scene(tris: &[[Vec3; 3]], light: RectLight) -> Scene {
         camera: Camera::look_at(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0),
         world_offset: DVec3::ZERO,
         any_alpha_test: false,
+        shading_mode: Default::default(),
+        normal_maps: false,
         stats: LoadStats::default(),
         warnings: Vec::new(),
     }

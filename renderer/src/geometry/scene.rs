@@ -2,11 +2,12 @@
 //! textures, lights and camera; closest-hit and occlusion queries with the alpha test; and
 //! the hit's own error bound that the one rule for ray origins uses ([`crate::geometry::ray_origin`]).
 
+use crate::geometry::attributes::TriangleExtras;
 use crate::geometry::camera::Camera;
 use crate::geometry::instanced::InstancedScene;
 use crate::geometry::instances::{Instance, MeshTopology, TriangleOrigin};
 use crate::geometry::light::RectLight;
-use crate::geometry::material::{Material, Texture};
+use crate::geometry::material::{Material, Shading, Texture};
 use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::{shadow_ray, shadow_ray_from};
 use crate::geometry::watertight::{HitPoint, ShearedRay, walkable};
@@ -71,6 +72,9 @@ pub struct Scene {
     /// In BVH order: `bvh` leaves index these directly.
     pub triangles: Vec<Triangle>,
     pub shading: Vec<TriangleShading>,
+    /// Per triangle (BVH order), only where a material reads them: the second texture
+    /// coordinates, COLOR_0 and tangents ([`crate::geometry::attributes`]).
+    pub extras: TriangleExtras,
     /// Per triangle (BVH order): its instance and index in its mesh.
     pub origins: Vec<TriangleOrigin>,
     /// The meshes the instances place, and the instances (see [`crate::geometry::instances`]).
@@ -94,6 +98,12 @@ pub struct Scene {
     pub world_offset: DVec3,
     /// Whether any material has an alpha test (lets occlusion skip the material lookup).
     pub any_alpha_test: bool,
+    /// How materials are shaded (`[materials] shading`): normal maps bend the hits' shading
+    /// normals in [`Shading::Gltf`] only.
+    pub shading_mode: Shading,
+    /// Whether any hit's normal is bent: [`Shading::Gltf`] and some triangle with tangents
+    /// (lets a hit skip the material lookup otherwise).
+    pub normal_maps: bool,
     pub stats: LoadStats,
     /// One line each: what the load dropped or could not keep precise (see `LoadStats`).
     pub warnings: Vec<String>,
@@ -305,11 +315,17 @@ impl Scene {
         }
         let sh = &self.shading[slot];
         let n_shading = ((1.0 - b1 - b2) * sh.n[0] + b1 * sh.n[1] + b2 * sh.n[2]).normalize_or_zero();
+        let uv = self.uv_at(slot, b1, b2);
+        let n_shading = if self.normal_maps {
+            self.mapped_normal(sh.material, n_shading, (uv, b1, b2), || self.extras.get(slot))
+        } else {
+            n_shading
+        };
         let n_shading = Self::facing_ray(n_shading, n_geom, d);
         Some(SurfaceHit {
             t: hit.t,
             point: ShadingPoint { p, p_error, n_geom, n_shading },
-            uv: self.uv_at(slot, b1, b2),
+            uv,
             material: sh.material,
             triangle: slot as u32,
             kept: None,
@@ -342,12 +358,19 @@ impl Scene {
             [crate::geometry::precision::render_face(q).as_vec3(); 3]
         });
         let n_shading = ((1.0 - b1 - b2) * n[0] + b1 * n[1] + b2 * n[2]).normalize_or_zero();
+        let uv = inst.uv_at(p, &pt, b1, b2);
+        let material = p.materials[pt.primitive as usize];
+        let n_shading = if self.normal_maps {
+            self.mapped_normal(material, n_shading, (uv, b1, b2), || inst.extras(p, &pt))
+        } else {
+            n_shading
+        };
         let n_shading = Self::facing_ray(n_shading, n_geom, d);
         Some(SurfaceHit {
             t,
             point: ShadingPoint { p: at, p_error, n_geom, n_shading },
-            uv: inst.uv_at(p, &pt, b1, b2),
-            material: p.materials[pt.primitive as usize],
+            uv,
+            material,
             triangle: slot as u32,
             kept: Some(placed as u32),
             front_face,

@@ -1,6 +1,7 @@
 //! The frame: primary rays, `prepare` per light, shading (direct light through the shadow
-//! plugin) and diffuse paths with next-event estimation at every vertex.
+//! plugin) and diffuse paths with next-event estimation at every vertex; the surface AOVs.
 
+pub mod aov;
 pub mod path;
 pub mod render;
 pub mod tally;

@@ -247,7 +247,7 @@ fn add_method_counters(methods: &[Box<dyn LightShadowing>], counters: &mut BTree
 
 /// The primary pass over `rows`: the closest hit (or none) of every sample of every pixel,
 /// at `((y - rows.start) * width + x) * spp + s`.
-fn primary_hits(
+pub(crate) fn primary_hits(
     scene: &Scene,
     settings: &RenderSettings,
     rows: &Range<u32>,

@@ -5,6 +5,7 @@
 //! here: only the CLI knows every shadow method, so it types that table itself (see
 //! `penumbra::shadows_config`).
 
+use crate::geometry::material::Shading;
 use crate::util::error::SceneError;
 use crate::util::keys::{deserialize_toml, deserialize_value};
 use serde::Deserialize;
@@ -30,6 +31,9 @@ pub struct SceneFile {
     /// How light is gathered: the path depth.
     #[serde(default)]
     pub integrator: IntegratorDesc,
+    /// How the models' materials are shaded.
+    #[serde(default)]
+    pub materials: MaterialsDesc,
     /// The shadow method and its parameters, typed by the composition root (the CLI).
     #[serde(default)]
     pub shadows: toml::Table,
@@ -53,6 +57,18 @@ impl Default for IntegratorDesc {
     fn default() -> Self {
         Self { max_depth: default_max_depth() }
     }
+}
+
+/// `[materials]`: how the glTF materials are shaded. Serialize gives its keys at their
+/// defaults, which the key reference is held to.
+#[derive(Debug, Clone, Default, Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialsDesc {
+    /// `"gltf"` (the default): as the files define them (normal textures bend the shading
+    /// normal); `"diffuse"`: every surface a two-sided Lambertian of its base colour with its
+    /// interpolated normal, the renders of before materials were read.
+    #[serde(default)]
+    pub shading: Shading,
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -446,6 +462,17 @@ radiance = [1.0, 1.0, 1.0]
         assert_eq!(e.key, "light[0].v");
         let e = parse(&MINIMAL.replace("u = [0.5, 0.0, 0.0]", "u = [0.5, nan, 0.0]")).unwrap_err();
         assert_eq!(e.key, "light[0].u");
+    }
+
+    #[test]
+    fn materials_shading_is_typed_and_named() {
+        assert_eq!(parse(MINIMAL).unwrap().materials.shading, Shading::Gltf);
+        let s = parse(&format!("{MINIMAL}\n[materials]\nshading = \"diffuse\"\n")).unwrap();
+        assert_eq!(s.materials.shading, Shading::Diffuse);
+        let e = parse(&format!("{MINIMAL}\n[materials]\nshading = \"phong\"\n")).unwrap_err();
+        assert_eq!(e.key, "materials.shading", "{e}");
+        let e = parse(&format!("{MINIMAL}\n[materials]\nshadin = \"gltf\"\n")).unwrap_err();
+        assert_eq!(e.key, "materials.shadin", "{e}");
     }
 
     #[test]

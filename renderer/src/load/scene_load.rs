@@ -2,10 +2,11 @@
 //! centred on the camera, lights and camera placed in it, triangles f32 cannot hold dropped
 //! and warned about, then the BVH.
 
+use crate::geometry::attributes::TriangleExtras;
 use crate::geometry::camera::Camera;
 use crate::geometry::instances::{Instance, MeshTopology, TriangleOrigin};
 use crate::geometry::light::RectLight;
-use crate::geometry::material::Material;
+use crate::geometry::material::{Material, Shading};
 use crate::geometry::precision::{f32_spacing, is_degenerate};
 use crate::geometry::scene::{LoadStats, Scene, TriangleShading, camera_frame_ok, cover_depth};
 use crate::load::gltf_load::{EmitterCandidate, Geometry, GltfCamera, SourceTriangle, load_gltf};
@@ -68,6 +69,7 @@ impl Scene {
             keep_instances: options.keep == KeepInstances::Always,
             keep_shared: options.keep == KeepInstances::Shared,
             may_keep_instances: options.keep != KeepInstances::Never,
+            shading: file.materials.shading,
             ..Geometry::default()
         };
         let gltf_camera = load_models(file, scene_path, &mut geometry)?;
@@ -138,11 +140,10 @@ impl Scene {
             instances,
             placements,
             memory_limit,
+            extras: source_extras,
+            shading: shading_mode,
             ..
         } = geometry;
-        let mut tris = Vec::with_capacity(source.len());
-        let mut shading = Vec::with_capacity(source.len());
-        let mut origins = Vec::with_capacity(source.len());
         let mut precision = PrecisionTally::default();
         precision.zero_area = degenerate;
         // Kept instances first: the loader placed them before any quad or soup.
@@ -152,13 +153,8 @@ impl Scene {
             (world_offset, corner_budget(memory_limit)),
             &mut precision,
         );
-        for s in &source {
-            let Some(face) = precision.keep(s.p, world_offset) else { continue };
-            let p = s.p.map(|p| (p - world_offset).as_vec3());
-            tris.push(Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() });
-            shading.push(TriangleShading { n: s.n.unwrap_or([face; 3]), uv: s.uv, material: s.material });
-            origins.push(s.origin);
-        }
+        let Flat { mut tris, mut shading, mut origins, mut extras } =
+            flat_triangles(&source, source_extras, world_offset, &mut precision);
         let warnings = precision.warnings();
         let (lo, hi) = scene_bounds(&tris, instanced.as_ref());
         let t_bvh = Instant::now();
@@ -171,6 +167,7 @@ impl Scene {
             tris = order.par_iter().map(|&i| tris[i as usize]).collect();
             shading = order.par_iter().map(|&i| shading[i as usize]).collect();
             origins = order.par_iter().map(|&i| origins[i as usize]).collect();
+            extras.reorder(order);
             bvh
         });
         drop(bvh_span);
@@ -178,9 +175,12 @@ impl Scene {
         let any_alpha_test =
             materials.iter().any(|m| !matches!(m.alpha, crate::geometry::material::AlphaMode::Opaque));
         let stats = load_stats(load, bvh_time, tris.len() as u64 + kept_triangles, &precision);
+        let normal_maps = shading_mode == Shading::Gltf
+            && (!extras.tangent.is_empty() || instanced.as_ref().is_some_and(|i| i.any_tangents()));
         Scene {
             triangles: tris,
             shading,
+            extras,
             origins,
             meshes,
             instances,
@@ -194,10 +194,57 @@ impl Scene {
             camera,
             world_offset,
             any_alpha_test,
+            shading_mode,
+            normal_maps,
             stats,
             warnings,
         }
     }
+}
+
+/// The flattened triangles in render space, in the loader's order, with their shading data,
+/// origins and extra attributes.
+struct Flat {
+    tris: Vec<Triangle>,
+    shading: Vec<TriangleShading>,
+    origins: Vec<TriangleOrigin>,
+    extras: TriangleExtras,
+}
+
+/// `source` (world, f64) in render space (less `world_offset`), those f32 cannot hold
+/// dropped and counted in `precision`, with the extra attributes of those kept
+/// (`source_extras`, by index in `source`: its values moved, not copied).
+fn flat_triangles(
+    source: &[SourceTriangle],
+    mut source_extras: TriangleExtras,
+    world_offset: DVec3,
+    precision: &mut PrecisionTally,
+) -> Flat {
+    let mut flat = Flat {
+        tris: Vec::with_capacity(source.len()),
+        shading: Vec::with_capacity(source.len()),
+        origins: Vec::with_capacity(source.len()),
+        extras: TriangleExtras::default(),
+    };
+    // The source index of each triangle kept, where any has extra attributes.
+    let mut kept = Vec::new();
+    let any_extras = source_extras.bytes() > 0;
+    for (i, s) in source.iter().enumerate() {
+        let Some(face) = precision.keep(s.p, world_offset) else { continue };
+        let p = s.p.map(|p| (p - world_offset).as_vec3());
+        flat.tris.push(Triangle { v0: p[0].into(), v1: p[1].into(), v2: p[2].into() });
+        flat.shading.push(TriangleShading { n: s.n.unwrap_or([face; 3]), uv: s.uv, material: s.material });
+        flat.origins.push(s.origin);
+        if any_extras {
+            kept.push(i as u32);
+        }
+    }
+    if any_extras {
+        source_extras.finish(source.len());
+        source_extras.reorder(&kept);
+        flat.extras = source_extras;
+    }
+    flat
 }
 
 /// What loading cost and what it dropped or found imprecise.

@@ -19,8 +19,10 @@ fn masked(wrap: Wrap, transform: Affine2, w: f32, cutoff: f32) -> Material {
             wrap_t: wrap,
             filter: Default::default(),
             transform,
+            tex_coord: 0,
         }),
         alpha: AlphaMode::Mask { cutoff },
+        ..Material::diffuse([1.0; 3])
     }
 }
 
@@ -101,6 +103,7 @@ fn constant_alpha_is_classified_by_the_test_itself() {
         base_color: Vec4::new(0.15, 0.15, 0.15, w),
         base_color_texture: None,
         alpha: AlphaMode::Mask { cutoff },
+        ..Material::diffuse([1.0; 3])
     };
     let uv = tri(0.0, 1.0);
     assert_eq!(class(&constant(0.3, 0.5), &[], uv), AlphaClass::Clear);

@@ -1,103 +1,249 @@
-//! glTF materials and their base-colour textures: image sources checked before decoding,
-//! every pixel format widened to RGBA8.
+//! glTF materials as the metallic-roughness model defines them: factors range-checked (one
+//! line naming the key), every texture reference with its own set, sampler and transform,
+//! image sources checked before decoding, every pixel format widened to RGBA8; and the
+//! material extensions a file uses that are not honoured, named in one warning.
 
 use super::files::{decodable_uri, uri_path};
 use super::*;
+use crate::geometry::material::NormalTexture;
 
-/// Appends the file's materials to `geometry` (only what shading and the alpha test need),
-/// with their base colour textures decoded once each. `base` is the folder of `path`, which
-/// relative image URIs start from.
-pub(super) fn load_materials(
-    path: &Path,
-    base: &Path,
-    doc: &gltf::Document,
-    buffers: &[gltf::buffer::Data],
-    geometry: &mut Geometry,
-) -> Result<(), SceneError> {
-    let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
+/// What a material's textures are read from: the file (errors name it), its folder (where
+/// relative image URIs start), its document and buffers.
+#[derive(Clone, Copy)]
+pub(super) struct Source<'a> {
+    pub(super) path: &'a Path,
+    pub(super) base: &'a Path,
+    pub(super) doc: &'a gltf::Document,
+    pub(super) buffers: &'a [gltf::buffer::Data],
+}
+
+/// A texture reference as the file gives it: the texture, its own `texCoord`, and
+/// KHR_texture_transform's offset, rotation, scale and `texCoord` override.
+struct TextureInfo<'a> {
+    texture: gltf::Texture<'a>,
+    tex_coord: u32,
+    transform: Option<gltf::json::extensions::texture::TextureTransform>,
+}
+
+impl<'a> TextureInfo<'a> {
+    fn of(info: &gltf::texture::Info<'a>) -> Self {
+        let transform = info.texture_transform().map(|t| gltf::json::extensions::texture::TextureTransform {
+            offset: gltf::json::extensions::texture::TextureTransformOffset(t.offset()),
+            rotation: gltf::json::extensions::texture::TextureTransformRotation(t.rotation()),
+            scale: gltf::json::extensions::texture::TextureTransformScale(t.scale()),
+            tex_coord: t.tex_coord(),
+            extras: Default::default(),
+        });
+        TextureInfo { texture: info.texture(), tex_coord: info.tex_coord(), transform }
+    }
+
+    /// gltf reads KHR_texture_transform on textureInfo only: a normalTexture's is read here
+    /// from its raw extension (`fail` makes the error for a malformed one).
+    fn of_normal(
+        n: &gltf::material::NormalTexture<'a>,
+        fail: impl Fn(String) -> SceneError,
+    ) -> Result<Self, SceneError> {
+        let transform = match n.extension_value("KHR_texture_transform") {
+            None => None,
+            Some(v) => Some(serde_json::from_value(v.clone()).map_err(|e| fail(e.to_string()))?),
+        };
+        Ok(TextureInfo { texture: n.texture(), tex_coord: n.tex_coord(), transform })
+    }
+
+    /// The set it reads: the transform's override first.
+    fn set(&self) -> u32 {
+        self.transform.as_ref().and_then(|t| t.tex_coord).unwrap_or(self.tex_coord)
+    }
+}
+
+/// Appends the file's materials to `geometry`, their textures decoded once each.
+pub(super) fn load_materials(src: Source, geometry: &mut Geometry) -> Result<(), SceneError> {
     // glTF image index -> slot in `geometry.textures`.
     let mut image_slots: HashMap<usize, u32> = HashMap::new();
-    for m in doc.materials() {
-        let key = format!("materials[{}]", m.index().unwrap_or(0));
-        let pbr = m.pbr_metallic_roughness();
-        let base_color = Vec4::from(pbr.base_color_factor());
-        if !base_color.to_array().iter().all(|c| (0.0..=1.0).contains(c)) {
-            return Err(fail(
-                &format!("{key}.pbrMetallicRoughness.baseColorFactor"),
-                format!("each channel must be in [0, 1] (an albedo), got {:?}", base_color.to_array()),
-            ));
-        }
-        let base_color_texture = match pbr.base_color_texture() {
-            None => None,
-            Some(info) => Some(texture_ref(path, base, doc, &info, buffers, &mut image_slots, geometry)?),
-        };
-        let alpha = match m.alpha_mode() {
-            gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
-            gltf::material::AlphaMode::Mask => AlphaMode::Mask { cutoff: m.alpha_cutoff().unwrap_or(0.5) },
-            gltf::material::AlphaMode::Blend => AlphaMode::Mask { cutoff: 0.5 },
-        };
-        geometry.materials.push(Material { base_color, base_color_texture, alpha });
+    for m in src.doc.materials() {
+        let material = load_material(src, &m, &mut image_slots, geometry)?;
+        geometry.materials.push(material);
     }
     Ok(())
 }
 
-/// A material's base colour texture: its image decoded into `geometry.textures` the first
-/// time any material uses it (`image_slots` remembers where), with the sampler's wrap modes
-/// and the KHR_texture_transform, if any.
-pub(super) fn texture_ref(
-    path: &Path,
-    base: &Path,
-    doc: &gltf::Document,
-    info: &gltf::texture::Info,
-    buffers: &[gltf::buffer::Data],
+/// One material: its factors checked, its textures decoded into `geometry.textures` (the
+/// first time any material uses each image: `image_slots` remembers where); under diffuse
+/// shading its base colour texture alone.
+fn load_material(
+    src: Source,
+    m: &gltf::Material,
     image_slots: &mut HashMap<usize, u32>,
     geometry: &mut Geometry,
-) -> Result<TextureRef, SceneError> {
-    let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
-    let texture = info.texture();
-    let image = texture.source();
-    let slot = match image_slots.get(&image.index()) {
-        Some(&s) => s,
-        None => {
-            if let Some(msg) = image_source_problem(doc, image.index(), buffers) {
-                return Err(fail(&format!("images[{}]", image.index()), msg));
+) -> Result<Material, SceneError> {
+    let key = format!("materials[{}]", m.index().unwrap_or(0));
+    let fail = |k: &str, msg: String| SceneError::new(src.path, format!("{key}.{k}"), msg);
+    let pbr = m.pbr_metallic_roughness();
+    let base_color = Vec4::from(pbr.base_color_factor());
+    if !base_color.to_array().iter().all(|c| (0.0..=1.0).contains(c)) {
+        return Err(fail(
+            "pbrMetallicRoughness.baseColorFactor",
+            format!("each channel must be in [0, 1] (an albedo), got {:?}", base_color.to_array()),
+        ));
+    }
+    let unit = |k: &str, v: f32| {
+        if (0.0..=1.0).contains(&v) { Ok(v) } else { Err(fail(k, format!("must be in [0, 1], got {v}"))) }
+    };
+    let metallic = unit("pbrMetallicRoughness.metallicFactor", pbr.metallic_factor())?;
+    let roughness = unit("pbrMetallicRoughness.roughnessFactor", pbr.roughness_factor())?;
+    let emissive = m.emissive_factor();
+    if !emissive.iter().all(|c| (0.0..=1.0).contains(c)) {
+        return Err(fail("emissiveFactor", format!("each channel must be in [0, 1], got {emissive:?}")));
+    }
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    if !(strength.is_finite() && strength >= 0.0) {
+        return Err(fail(
+            "extensions.KHR_materials_emissive_strength.emissiveStrength",
+            format!("must be finite and >= 0, got {strength}"),
+        ));
+    }
+    // Diffuse shading reads the base colour alone: its other textures are not decoded (they
+    // would cost it memory and time for nothing), as before materials were read.
+    let gltf = geometry.shading == Shading::Gltf;
+    let mut textures = Textures { src, image_slots, geometry };
+    let base_color_texture = textures.optional(pbr.base_color_texture())?;
+    let metallic_roughness_texture = textures.optional(pbr.metallic_roughness_texture().filter(|_| gltf))?;
+    let emissive_texture = textures.optional(m.emissive_texture().filter(|_| gltf))?;
+    let normal_texture = match m.normal_texture() {
+        None => None,
+        Some(n) => {
+            let scale = n.scale();
+            if !scale.is_finite() {
+                return Err(fail("normalTexture.scale", format!("must be finite, got {scale}")));
             }
-            let data = gltf::image::Data::from_source(image.source(), Some(base), buffers).map_err(|e| {
-                let (key, what) = match image.source() {
-                    gltf::image::Source::Uri { uri, .. } => match uri_path(base, uri) {
-                        Some(p) => (format!("images[{}].uri", image.index()), p.display().to_string()),
-                        None => (format!("images[{}].uri", image.index()), "the data URI".into()),
-                    },
-                    gltf::image::Source::View { view, .. } => (
-                        format!("images[{}].bufferView", image.index()),
-                        format!("bufferViews[{}]", view.index()),
-                    ),
-                };
-                fail(&key, format!("cannot read or decode {what}: {e}"))
-            })?;
-            let tex = to_rgba8(&data).ok_or_else(|| {
-                fail(
-                    &format!("images[{}]", image.index()),
-                    format!("unsupported pixel format {:?}", data.format),
-                )
-            })?;
-            geometry.textures.push(tex);
-            let s = geometry.textures.len() as u32 - 1;
-            image_slots.insert(image.index(), s);
-            s
+            let info =
+                TextureInfo::of_normal(&n, |e| fail("normalTexture.extensions.KHR_texture_transform", e))?;
+            gltf.then(|| textures.reference(&info))
+                .transpose()?
+                .map(|texture| NormalTexture { texture, scale })
         }
     };
-    let sampler = texture.sampler();
-    let transform = info
-        .texture_transform()
-        .map_or(Affine2::IDENTITY, |t| uv_transform(t.offset(), t.rotation(), t.scale()));
-    Ok(TextureRef {
-        texture: slot,
-        wrap_s: wrap(sampler.wrap_s()),
-        wrap_t: wrap(sampler.wrap_t()),
-        filter: filter(sampler.mag_filter(), sampler.min_filter()),
-        transform,
-    })
+    let alpha = match m.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+        gltf::material::AlphaMode::Mask => AlphaMode::Mask { cutoff: m.alpha_cutoff().unwrap_or(0.5) },
+        gltf::material::AlphaMode::Blend => AlphaMode::Mask { cutoff: 0.5 },
+    };
+    let material = Material {
+        base_color,
+        base_color_texture,
+        alpha,
+        metallic,
+        roughness,
+        metallic_roughness_texture,
+        normal_texture,
+        emission: Vec3::from(emissive) * strength,
+        emissive_texture,
+    };
+    check_uv_sets(&material).map_err(|(k, msg)| fail(&format!("{k}.texCoord"), msg))?;
+    Ok(material)
+}
+
+/// A triangle holds two texture-coordinate sets: the base colour texture's and one other.
+/// A material whose other textures read two sets besides the base colour's is refused,
+/// naming the texture that reads the third (its `texCoord`, or KHR_texture_transform's).
+fn check_uv_sets(m: &Material) -> Result<(), (&'static str, String)> {
+    let (base, second) = (m.base_uv_set(), m.second_uv_set());
+    for (k, t) in m.other_textures() {
+        if let Some(t) = t.filter(|t| t.tex_coord != base && Some(t.tex_coord) != second) {
+            let (k, set) = (k, t.tex_coord);
+            return Err((
+                k,
+                format!(
+                    "reads TEXCOORD_{set}, a third set (the base colour texture reads TEXCOORD_{base}, \
+                     another texture TEXCOORD_{}): at most two sets per material are read",
+                    second.unwrap_or(base)
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// One material's texture references, decoded into the scene's textures as they are met.
+struct Textures<'s, 'g> {
+    src: Source<'s>,
+    image_slots: &'s mut HashMap<usize, u32>,
+    geometry: &'g mut Geometry,
+}
+
+impl Textures<'_, '_> {
+    /// The reference `info` gives, if any.
+    fn optional(&mut self, info: Option<gltf::texture::Info>) -> Result<Option<TextureRef>, SceneError> {
+        info.map(|i| self.reference(&TextureInfo::of(&i))).transpose()
+    }
+
+    /// A texture reference: its image decoded into `geometry.textures` the first time any
+    /// material uses it, with the sampler's wrap modes and filter, the KHR_texture_transform
+    /// and the set it reads.
+    fn reference(&mut self, info: &TextureInfo) -> Result<TextureRef, SceneError> {
+        let slot = self.image_slot(&info.texture.source())?;
+        let sampler = info.texture.sampler();
+        let transform = info
+            .transform
+            .as_ref()
+            .map_or(Affine2::IDENTITY, |t| uv_transform(t.offset.0, t.rotation.0, t.scale.0));
+        Ok(TextureRef {
+            texture: slot,
+            wrap_s: wrap(sampler.wrap_s()),
+            wrap_t: wrap(sampler.wrap_t()),
+            filter: filter(sampler.mag_filter(), sampler.min_filter()),
+            transform,
+            tex_coord: info.set(),
+        })
+    }
+
+    /// Where `image` is in `geometry.textures`, decoding it the first time.
+    fn image_slot(&mut self, image: &gltf::Image) -> Result<u32, SceneError> {
+        if let Some(&s) = self.image_slots.get(&image.index()) {
+            return Ok(s);
+        }
+        let Source { path, base, doc, buffers } = self.src;
+        let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
+        if let Some(msg) = image_source_problem(doc, image.index(), buffers) {
+            return Err(fail(&format!("images[{}]", image.index()), msg));
+        }
+        let data = gltf::image::Data::from_source(image.source(), Some(base), buffers).map_err(|e| {
+            let (key, what) = match image.source() {
+                gltf::image::Source::Uri { uri, .. } => match uri_path(base, uri) {
+                    Some(p) => (format!("images[{}].uri", image.index()), p.display().to_string()),
+                    None => (format!("images[{}].uri", image.index()), "the data URI".into()),
+                },
+                gltf::image::Source::View { view, .. } => (
+                    format!("images[{}].bufferView", image.index()),
+                    format!("bufferViews[{}]", view.index()),
+                ),
+            };
+            fail(&key, format!("cannot read or decode {what}: {e}"))
+        })?;
+        let tex = to_rgba8(&data).ok_or_else(|| {
+            fail(&format!("images[{}]", image.index()), format!("unsupported pixel format {:?}", data.format))
+        })?;
+        self.geometry.textures.push(tex);
+        let s = self.geometry.textures.len() as u32 - 1;
+        self.image_slots.insert(image.index(), s);
+        Ok(s)
+    }
+}
+
+/// The material extensions of `doc` not honoured (every one on a material but
+/// KHR_materials_emissive_strength, and every KHR_materials_* the file lists as used, such
+/// as KHR_materials_variants), sorted: their materials are read as metallic-roughness.
+pub(super) fn unhonoured_extensions(doc: &gltf::Document) -> Vec<String> {
+    const HONOURED: &[&str] = &["KHR_materials_emissive_strength"];
+    let on_materials = doc
+        .materials()
+        .flat_map(|m| m.extensions().map(|e| e.keys().cloned().collect::<Vec<_>>()).unwrap_or_default());
+    let listed = doc.extensions_used().filter(|e| e.starts_with("KHR_materials_")).map(String::from);
+    let mut names: Vec<String> =
+        on_materials.chain(listed).filter(|e| !HONOURED.contains(&e.as_str())).collect();
+    names.sort();
+    names.dedup();
+    names
 }
 
 /// What gltf's `Image::source` and `image::Data::from_source` panic on and its validation

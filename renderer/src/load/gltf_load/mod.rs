@@ -2,8 +2,9 @@
 //! textures. Node transforms are composed in f64; every node of the default scene is
 //! expanded, nested TRS and matrices alike. Skins and morph targets are ignored (bind pose).
 
+use crate::geometry::attributes::TriangleExtras;
 use crate::geometry::instances::{Instance, MeshTopology, Placement, Placing, PrimitiveData, TriangleOrigin};
-use crate::geometry::material::{AlphaMode, Filter, Material, Texture, TextureRef, Wrap};
+use crate::geometry::material::{AlphaMode, Filter, Material, Shading, Texture, TextureRef, Wrap};
 use crate::util::error::SceneError;
 use glam::{Affine2, DMat4, DVec3, Mat2, Vec2, Vec3, Vec4};
 use gltf::Semantic;
@@ -12,13 +13,17 @@ use gltf::mesh::Mode;
 use std::collections::HashMap;
 use std::path::Path;
 
+mod attributes;
 mod files;
 mod gpu_instancing;
 mod materials;
 mod primitives;
+mod tangents;
+use attributes::{Needs, read_extras};
 use files::{load_buffers, open_gltf, truncated_glb, uris_out_of_folder};
 use materials::*;
 use primitives::*;
+pub use tangents::generate_tangents;
 
 /// A triangle as loaded: world positions in f64 (before the scene is recentred), optional
 /// world-space vertex normals, texture coordinates and a material index (into the scene's
@@ -52,6 +57,10 @@ pub struct GltfCamera {
 #[derive(Debug, Default)]
 pub struct Geometry {
     pub triangles: Vec<SourceTriangle>,
+    /// The extra attributes of the `triangles` whose material reads a second
+    /// texture-coordinate set, COLOR_0 or tangents, by index there (pushed in order; the
+    /// scene build keeps those of the triangles it keeps).
+    pub extras: TriangleExtras,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
     pub emitters: Vec<EmitterCandidate>,
@@ -75,6 +84,9 @@ pub struct Geometry {
     /// copies beyond the first hold at least [`SHARED_TRIANGLES`]).
     pub keep_shared: bool,
     pub shared: std::collections::HashSet<MeshKey>,
+    /// How the scene's materials are shaded: tangents are read (or generated) for
+    /// normal-mapped primitives in [`Shading::Gltf`] only.
+    pub shading: Shading,
     /// Bytes the load may use at its peak: a file whose triangles, once every instance is
     /// flattened, would need more ([`BYTES_PER_TRIANGLE`] each) is refused before its
     /// buffers are read. `None`: no limit.
@@ -145,10 +157,19 @@ fn load_file(
     let doc = &gltf.document;
 
     let material_base = geometry.materials.len() as u32;
-    load_materials(path, base, doc, &buffers, geometry)?;
+    load_materials(materials::Source { path, base, doc, buffers: &buffers }, geometry)?;
     // The glTF default material (white, opaque) for primitives without one.
-    geometry.materials.push(Material::diffuse([1.0, 1.0, 1.0]));
+    geometry.materials.push(Material::gltf_default());
     let default_material = geometry.materials.len() as u32 - 1;
+    // Diffuse shading honours no material extension by choice: nothing to warn of.
+    let unhonoured = unhonoured_extensions(doc);
+    if !unhonoured.is_empty() && geometry.shading == Shading::Gltf {
+        geometry.warnings.push(format!(
+            "{}: material extensions not honoured (shaded as metallic-roughness): {}",
+            path.display(),
+            unhonoured.join(", ")
+        ));
+    }
 
     let scene = doc
         .default_scene()
@@ -304,9 +325,9 @@ fn plan_instances(path: &Path, doc: &gltf::Document, geometry: &mut Geometry) ->
     ))
 }
 
-/// What a mesh's read primitives depend on: its [`MeshKey`], and per primitive its NORMAL
-/// accessor and the TEXCOORD accessor its material reads.
-type ReadKey = (MeshKey, Vec<(Option<usize>, Option<usize>)>);
+/// What a mesh's read primitives depend on: its [`MeshKey`], and per primitive what its
+/// material reads and the accessors read for it.
+type ReadKey = (MeshKey, Vec<AttributeKey>);
 
 /// Loads the meshes of every node of `scene`, each under its world transform (the file's
 /// node transforms after `model_from_file`). Returns the first perspective camera met.
@@ -401,12 +422,14 @@ fn load_mesh_node(
     // Kept instances read a mesh's primitives once (10,000 boulders' nodes would read 82k
     // triangles each). Their normals and texture coordinates too: meshes sharing positions
     // may differ there.
-    let read_key: ReadKey = (key.clone(), mesh.primitives().map(|p| attribute_key(&p)).collect());
+    let needs =
+        |p: &gltf::Primitive| Needs::of(&geometry.materials[material_id(file, p) as usize], geometry.shading);
+    let read_key: ReadKey = (key.clone(), mesh.primitives().map(|p| attribute_key(&p, needs(&p))).collect());
     let cached = if keep { met.kept.get(&read_key).cloned() } else { None };
     let mut read = Vec::new();
     if cached.is_none() {
         for prim in mesh.primitives() {
-            read.extend(read_primitive(file, mesh, &prim, topology.as_mut())?);
+            read.extend(read_primitive(file, (mesh, &prim), &needs(&prim), topology.as_mut())?);
         }
     }
     if let Some(t) = topology {

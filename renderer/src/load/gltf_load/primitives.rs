@@ -43,21 +43,26 @@ pub(super) fn has_triangles(prim: &gltf::Primitive) -> bool {
     matches!(prim.mode(), Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)
 }
 
-/// The texture coordinate set `material`'s base colour texture reads (KHR_texture_transform's
-/// override first), 0 without one.
-pub(super) fn uv_set(material: &gltf::Material) -> u32 {
-    material
-        .pbr_metallic_roughness()
-        .base_color_texture()
-        .map(|info| info.texture_transform().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord()))
-        .unwrap_or(0)
+/// What a primitive's read data depends on beyond its positions, indices and mode: what its
+/// material reads ([`Needs`]) and the accessors read for it.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub(super) struct AttributeKey {
+    needs: Needs,
+    /// NORMAL, the base set's TEXCOORD, the second set's, COLOR_0 and TANGENT, where read.
+    accessors: [Option<usize>; 5],
 }
 
-/// What a primitive's read data depends on beyond its positions, indices and mode: its
-/// NORMAL accessor and the TEXCOORD accessor its material reads.
-pub(super) fn attribute_key(prim: &gltf::Primitive) -> (Option<usize>, Option<usize>) {
-    let uvs = prim.get(&Semantic::TexCoords(uv_set(&prim.material()))).map(|a| a.index());
-    (prim.get(&Semantic::Normals).map(|a| a.index()), uvs)
+/// [`AttributeKey`] of `prim` whose material reads `needs`.
+pub(super) fn attribute_key(prim: &gltf::Primitive, needs: Needs) -> AttributeKey {
+    let index = |s: Semantic| prim.get(&s).map(|a| a.index());
+    let accessors = [
+        index(Semantic::Normals),
+        index(Semantic::TexCoords(needs.base_set)),
+        needs.second_set.and_then(|s| index(Semantic::TexCoords(s))),
+        if needs.colors { index(Semantic::Colors(0)) } else { None },
+        needs.tangent_set.and_then(|_| index(Semantic::Tangents)),
+    ];
+    AttributeKey { needs, accessors }
 }
 
 /// The scene's index of `prim`'s material.
@@ -70,8 +75,8 @@ pub(super) fn material_id(file: &FileContext, prim: &gltf::Primitive) -> u32 {
 
 pub(super) fn read_primitive<'a>(
     file: &FileContext,
-    mesh: &gltf::Mesh,
-    prim: &gltf::Primitive<'a>,
+    (mesh, prim): (&gltf::Mesh, &gltf::Primitive<'a>),
+    needs: &Needs,
     topology: Option<&mut TopologyBuilder>,
 ) -> Result<Option<ReadPrimitive<'a>>, SceneError> {
     let FileContext { path, buffers, .. } = *file;
@@ -83,17 +88,19 @@ pub(super) fn read_primitive<'a>(
     }
     let material = prim.material();
     let mat_id = material_id(file, prim);
-    let uv_set = uv_set(&material);
 
-    let vertices = read_vertices(prim, uv_set, buffers, &fail)?;
+    let vertices = read_vertices(prim, needs.base_set, buffers, &fail)?;
     let corners = triangle_corners(mode, &vertices.indices);
     if let Some(t) = topology {
         let base = t.positions.len() as u32;
         t.positions.extend(vertices.positions.iter().map(|&p| Vec3::from(p)));
         t.corners.extend(corners.iter().map(|c| c.map(|i| base + i)));
     }
+    let extras = read_extras(prim, needs, (&vertices, &corners), buffers, &fail)?;
     let Vertices { positions, normals, uvs, .. } = vertices;
-    Ok(Some(ReadPrimitive { data: PrimitiveData { positions, normals, uvs, corners }, material, mat_id }))
+    let super::attributes::Extras { uv2, colors, tangents } = extras;
+    let data = PrimitiveData { positions, normals, uvs, uv2, colors, tangents, corners };
+    Ok(Some(ReadPrimitive { data, material, mat_id }))
 }
 
 /// Appends `prim`'s triangles under the world transform `world` to `geometry`, the first as
@@ -146,11 +153,11 @@ pub(super) fn checked_accessors<'a>(
 /// A primitive's vertex data, read and checked: positions finite, every other attribute
 /// with one element per vertex, every index naming a vertex.
 pub(super) struct Vertices {
-    positions: Vec<[f32; 3]>,
-    normals: Option<Vec<[f32; 3]>>,
-    uvs: Option<Vec<[f32; 2]>>,
+    pub(super) positions: Vec<[f32; 3]>,
+    pub(super) normals: Option<Vec<[f32; 3]>>,
+    pub(super) uvs: Option<Vec<[f32; 2]>>,
     /// The file's indices, or 0..positions.len() for a primitive without them.
-    indices: Vec<u32>,
+    pub(super) indices: Vec<u32>,
 }
 
 /// Reads `prim`'s positions, normals, texture coordinates (set `uv_set`) and indices.
@@ -243,7 +250,8 @@ pub(super) fn push_triangles(
     (mat_id, origin): (u32, TriangleOrigin),
     geometry: &mut Geometry,
 ) {
-    let PrimitiveData { positions, normals, uvs, corners } = data;
+    let PrimitiveData { positions, normals, uvs, corners, .. } = data;
+    let has_extras = data.uv2.is_some() || data.colors.is_some() || data.tangents.is_some();
     let placing = Placing::new(world);
     let emissive = emission(material);
     let mut emitter_tris = Vec::new();
@@ -261,6 +269,9 @@ pub(super) fn push_triangles(
             Some(t) => c.map(|i| Vec2::from(t[i as usize])),
             None => [Vec2::ZERO; 3],
         };
+        if has_extras {
+            geometry.extras.push(geometry.triangles.len(), data.extras(&placing, c));
+        }
         geometry.triangles.push(SourceTriangle { p, n, uv, material: mat_id, origin });
         if emissive.is_some() {
             emitter_tris.push(p);
