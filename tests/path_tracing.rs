@@ -2,79 +2,14 @@
 //! as the direct-light formula bit for bit, convergence with spp, and the same bytes for any
 //! thread count.
 
-use glam::{DVec3, Vec2, Vec3};
-use renderer::geometry::material::Material;
-use renderer::load::gltf_load::{Geometry, SourceTriangle};
+mod common;
+
+use common::sphere::sphere;
+use glam::{DVec3, Vec3};
+use renderer::geometry::material::Shading;
 use renderer::{
     Camera, Frame, LightShadowing, RectLight, RenderSettings, Scene, Traced, TracedParams, render,
 };
-
-/// A geodesic sphere (an icosahedron subdivided `levels` times, vertices on the sphere) of
-/// radius `r` about the origin, albedo `rho`, faces wound outward (two-sided shading).
-fn sphere(r: f64, levels: u32, rho: f32) -> Geometry {
-    let t = (1.0 + 5f64.sqrt()) / 2.0;
-    let v: Vec<DVec3> = [
-        [-1.0, t, 0.0],
-        [1.0, t, 0.0],
-        [-1.0, -t, 0.0],
-        [1.0, -t, 0.0],
-        [0.0, -1.0, t],
-        [0.0, 1.0, t],
-        [0.0, -1.0, -t],
-        [0.0, 1.0, -t],
-        [t, 0.0, -1.0],
-        [t, 0.0, 1.0],
-        [-t, 0.0, -1.0],
-        [-t, 0.0, 1.0],
-    ]
-    .iter()
-    .map(|p| DVec3::from(*p).normalize())
-    .collect();
-    let faces = [
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
-    let mut tris: Vec<[DVec3; 3]> = faces.iter().map(|f| [v[f[0]], v[f[1]], v[f[2]]]).collect();
-    for _ in 0..levels {
-        tris = tris
-            .iter()
-            .flat_map(|[a, b, c]| {
-                let (ab, bc, ca) = ((*a + *b).normalize(), (*b + *c).normalize(), (*c + *a).normalize());
-                [[*a, ab, ca], [ab, *b, bc], [ca, bc, *c], [ab, bc, ca]]
-            })
-            .collect();
-    }
-    let mut g = Geometry::default();
-    g.materials.push(Material::diffuse([rho; 3]));
-    for p in tris {
-        g.triangles.push(SourceTriangle {
-            p: p.map(|x| x * r),
-            n: None,
-            uv: [Vec2::ZERO; 3],
-            material: 0,
-            origin: renderer::geometry::instances::TriangleOrigin::LOOSE,
-        });
-    }
-    g
-}
 
 fn traced(scene: &Scene, samples: u32) -> Vec<Box<dyn LightShadowing>> {
     scene
@@ -100,7 +35,7 @@ fn settings(width: u32, height: u32, spp: u32, max_depth: u32) -> RenderSettings
 #[test]
 fn an_integrating_sphere_holds_its_analytic_balance() {
     let rho = 0.5f32;
-    let geometry = sphere(1.0, 4, rho);
+    let geometry = sphere(1.0, 4, rho, false);
     let area: f64 =
         geometry.triangles.iter().map(|t| 0.5 * (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).length()).sum();
     let l_e = 10.0f32;
@@ -109,7 +44,9 @@ fn an_integrating_sphere_holds_its_analytic_balance() {
         RectLight::new(Vec3::ZERO, Vec3::new(0.2, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.2), Vec3::splat(l_e));
     let a_light = light.area() as f64;
     let camera = Camera::look_at(Vec3::new(0.0, -0.3, 0.0), Vec3::new(1.0, -0.5, 0.2), Vec3::Y, 70.0);
-    let scene = Scene::build(geometry, vec![light], camera, DVec3::ZERO, Default::default());
+    let mut scene = Scene::build(geometry, vec![light], camera, DVec3::ZERO, Default::default());
+    // The balance is the Lambertian walls'.
+    scene.shading_mode = Shading::Diffuse;
     let deep = frame(&scene, &settings(64, 64, 64, 64));
     let direct = frame(&scene, &settings(64, 64, 64, 2));
     let n = deep.radiance.len() as f64;
@@ -125,9 +62,11 @@ fn an_integrating_sphere_holds_its_analytic_balance() {
     assert!(deep.radiance.iter().all(|c| c.x == c.y && c.y == c.z));
 }
 
+/// The default scene, shaded Lambertian (the formula below is the diffuse renderer's).
 fn default_scene() -> Scene {
-    let file =
+    let mut file =
         renderer::SceneFile::parse(penumbra::DEFAULT_SCENE, std::path::Path::new("default.toml")).unwrap();
+    file.materials.shading = Shading::Diffuse;
     Scene::load(&file, std::path::Path::new("default.toml")).unwrap()
 }
 

@@ -19,7 +19,7 @@ pub const READERS: &[&str] = &[
     "bench::a_changed_model_buffer_renders_the_truth_anew",
     "instances::metal_rough_spheres_kept_answers_as_flattened",
     "materials::generated_tangents_agree_with_flight_helmets_own",
-    "material_shading::diffuse_renders_as_gltf_without_normal_maps_on_every_shared_scene",
+    "material_shading::diffuse_reads_nothing_but_base_colour_on_every_shared_scene",
 ];
 
 /// Where to read how to get the scenes.

@@ -103,26 +103,8 @@ impl RectLight {
         if !self.faces(p) {
             return 0.0;
         }
-        let p = p.as_dvec3();
         let n = n.as_dvec3();
-        let mut poly = [DVec3::ZERO; 8];
-        let mut count = 0;
-        // Sutherland-Hodgman clip of the rectangle (relative to p) against n . r >= 0.
-        let corners = self.corners().map(|c| c.as_dvec3() - p);
-        for i in 0..4 {
-            let a = corners[i];
-            let b = corners[(i + 1) % 4];
-            let (da, db) = (n.dot(a), n.dot(b));
-            if da >= 0.0 {
-                poly[count] = a;
-                count += 1;
-            }
-            if (da >= 0.0) != (db >= 0.0) {
-                let t = da / (da - db);
-                poly[count] = a + t * (b - a);
-                count += 1;
-            }
-        }
+        let (poly, count) = self.above_horizon(p, n);
         if count < 3 {
             return 0.0;
         }
@@ -142,6 +124,56 @@ impl RectLight {
         // The clipped polygon is convex and lies in one hemisphere, so every term has the
         // sign of the winding seen from p; the magnitude is the answer.
         0.5 * sum.abs()
+    }
+
+    /// The rectangle's corners relative to `p`, clipped to the upper hemisphere of `n`
+    /// (Sutherland-Hodgman against n . r >= 0): the corners and their count.
+    fn above_horizon(&self, p: Vec3, n: DVec3) -> ([DVec3; 8], usize) {
+        let p = p.as_dvec3();
+        let mut poly = [DVec3::ZERO; 8];
+        let mut count = 0;
+        let corners = self.corners().map(|c| c.as_dvec3() - p);
+        for i in 0..4 {
+            let a = corners[i];
+            let b = corners[(i + 1) % 4];
+            let (da, db) = (n.dot(a), n.dot(b));
+            if da >= 0.0 {
+                poly[count] = a;
+                count += 1;
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                let t = da / (da - db);
+                poly[count] = a + t * (b - a);
+                count += 1;
+            }
+        }
+        (poly, count)
+    }
+
+    /// The mean direction of the light's irradiance at `p` (normal `n`): Lambert's vector
+    /// form factor of its part above the horizon, normalised (toward the light); zero where
+    /// none of it is above. Where a term depends on the light's direction, it is read there
+    /// (the diffuse part's Fresnel, [`crate::integrator::reflect`]).
+    pub fn irradiance_direction(&self, p: Vec3, n: Vec3) -> Vec3 {
+        if !self.faces(p) {
+            return Vec3::ZERO;
+        }
+        let (poly, count) = self.above_horizon(p, n.as_dvec3());
+        let mut sum = DVec3::ZERO;
+        for i in 0..count {
+            let (a, b) = (poly[i], poly[(i + 1) % count]);
+            let c = a.cross(b);
+            let c_len = c.length();
+            if c_len > 0.0 {
+                sum += c * (c_len.atan2(a.dot(b)) / c_len);
+            }
+        }
+        // The winding decides the sign: the direction is the one toward the light.
+        let centre = (self.center - p).as_dvec3();
+        if sum.dot(centre) < 0.0 {
+            sum = -sum;
+        }
+        sum.normalize_or_zero().as_vec3()
     }
 
     /// Unshadowed irradiance E (per colour channel) at `p` with unit normal `n`.

@@ -3,8 +3,10 @@
 //! number is keyed by (seed, pixel, sample, light), so the bytes do not depend on the number
 //! of threads.
 
+use crate::geometry::material::Shading;
 use crate::geometry::point::ShadingPoint;
 use crate::geometry::scene::{Scene, SurfaceHit};
+use crate::integrator::gltf_path;
 use crate::integrator::path::{PathContext, PathId, VertexQueries, merge_vertex_queries};
 use crate::integrator::tally::FrameTally;
 use crate::interface::shadowing::{LightShadowing, PrepareContext, ShadowError};
@@ -452,15 +454,24 @@ fn shade_pixel(
     let ctx = PathContext { scene, methods, max_depth, profile };
     // The primary hits' direct light, summed as the direct-light renderer sums it (so
     // max_depth = 2 gives its bytes), and the paths' indirect light beside it.
-    let (mut sum, mut indirect) = (Vec3::ZERO, Vec3::ZERO);
+    let (mut sum, mut indirect, mut gltf) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
     let mut hit_count = 0u32;
     vis_px.fill(0.0);
     for (s, hit) in hits.iter().enumerate() {
         let Some(hit) = hit else { continue };
         hit_count += 1;
         tally.points += 1;
-        let albedo = scene.albedo(hit);
         let id = PathId { pixel: [x as u32, y as u32], pixel_index, sample: s as u64, seed };
+        if scene.shading_mode == Shading::Gltf {
+            let (facing, lit) = (&mut tally.facing, &mut tally.lit);
+            gltf += gltf_path::radiance(&ctx, hit, &id, &mut tally.vertices, |k, v| {
+                facing[k] += 1;
+                lit[k] += u64::from(v > 0.0);
+                vis_px[k] += v;
+            });
+            continue;
+        }
+        let albedo = scene.albedo(hit);
         for (k, light) in scene.lights.iter().enumerate() {
             let e = light.irradiance_factor(hit.point.p, hit.point.n_shading);
             if e <= 0.0 {
@@ -486,6 +497,9 @@ fn shade_pixel(
     }
     for v in vis_px.iter_mut() {
         *v = if hit_count == 0 { -1.0 } else { *v / hit_count as f32 };
+    }
+    if scene.shading_mode == Shading::Gltf {
+        return gltf / spp as f32;
     }
     let direct = sum * (std::f32::consts::FRAC_1_PI / spp as f32);
     if max_depth > 2 { direct + indirect / spp as f32 } else { direct }
