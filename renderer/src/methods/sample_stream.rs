@@ -464,18 +464,37 @@ impl<'a> PointSamples<'a> {
 
     /// [`PointSamples::trace`] with `lobe`'s sums beside the tally: each sample's weight
     /// times the lobe's factor at it ([`GlossyLobe::factor`]), for the glossy share.
+    ///
+    /// The lobe is weighed only where some samples are blocked and some are not (a lit point's
+    /// share is 1, an umbra's 0, whatever the lobe): the verdicts are kept as bits and the
+    /// samples drawn again for it. Weighing every sample cost the Cornell box 30% at N = 256.
     pub fn trace_glossy(&self, scene: &Scene, lobe: &GlossyLobe) -> (ShareTally, LobeTally, u32) {
-        let (mut tally, mut glossy, mut traced) = (ShareTally::default(), LobeTally::default(), 0u32);
-        let p = self.q.point.p;
+        let (mut tally, mut traced) = (ShareTally::default(), 0u32);
+        let mut open = [0u64; (MAX_TRACED_SAMPLES as usize).div_ceil(64)];
+        let mut k = 0usize;
         self.for_each(|s| {
             let blocked = !s.proven && {
                 traced += 1;
                 self.occluded(scene, &s)
             };
-            let w = self.weight(&s);
-            tally.add(w, blocked);
-            glossy.add(w * lobe.factor(s.target - p) as f64, !blocked);
+            tally.add(self.weight(&s), blocked);
+            open[k / 64] |= u64::from(!blocked) << (k % 64);
+            k += 1;
         });
+        let mut glossy = LobeTally::default();
+        if tally.blocked != 0 && tally.blocked != tally.counted {
+            let p = self.q.point.p;
+            let mut k = 0usize;
+            self.for_each(|s| {
+                glossy.add(
+                    self.weight(&s) * lobe.factor(s.target - p) as f64,
+                    open[k / 64] >> (k % 64) & 1 != 0,
+                );
+                k += 1;
+            });
+        } else {
+            glossy.add(1.0, tally.blocked == 0);
+        }
         (tally, glossy, traced)
     }
 
