@@ -427,4 +427,69 @@ mod tests {
         assert!(worst < 3e-3, "worst {worst}");
         assert!((sum / n as f64).abs() < 3e-4, "mean difference {}", sum / n as f64);
     }
+
+    /// The same for a glossy lobe ([`LobePlane`]): the rows' share of the lobe's integral,
+    /// each row cut to the fit's horizon, against the exact share the arrangement's boundary
+    /// gives clipped to it ([`crate::analytic::lobe::ClippedSum`]), for lobes seen from
+    /// grazing to head-on whose fit's horizon crosses the light: within 3e-3 on every case,
+    /// unbiased on average; and every clipped boundary closes.
+    #[test]
+    fn lobe_row_share_is_near_the_exact_clipped_share() {
+        use crate::analytic::arrangement::Arrangement;
+        use crate::analytic::lobe::ClippedSum;
+        use glam::Vec3;
+        use renderer::RectLight;
+        use renderer::interface::lobe::GlossyLobe;
+        let light = RectLight::new(Vec3::new(0.0, 1.0, 0.0), Vec3::X, Vec3::Z, Vec3::ONE);
+        let mut next = uniform(0x0005_0a35_1e0b_e5ed);
+        let (mut rows, mut arr, mut crossings) = (Rows::default(), Arrangement::default(), Vec::new());
+        let (mut worst, mut sum, mut n, mut cut) = (0.0f64, 0.0, 0, 0);
+        for round in 0..200 {
+            // Normals tilted up to 70 degrees (the horizon crosses the light), views from
+            // head-on to grazing on either side: the fit's horizon crosses the light on many.
+            let tilt = (140.0 * next() - 70.0).to_radians();
+            let normal = glam::DVec3::new(tilt.sin(), tilt.cos(), 0.0);
+            let plane = LightPlane::new(&light, glam::DVec3::new(0.2, 0.0, 0.1), normal);
+            let view = tilt + (170.0 * next() - 85.0).to_radians();
+            let wo = Vec3::new(view.sin() as f32, view.cos() as f32, 0.0);
+            let glossy = GlossyLobe::new(normal.as_vec3(), wo, 0.2 + 0.8 * next() as f32).expect("wo above");
+            let lobe = LobePlane::new(&plane, &glossy);
+            let polys: Vec<Vec<DVec2>> = (0..1 + round % 5).map(|_| polygon(&mut next)).collect();
+            let mut segs = Vec::new();
+            for p in &polys {
+                edges(p, &mut segs);
+            }
+            let mut above = [DVec2::ZERO; crate::analytic::arrangement::MAX_DOMAIN];
+            let m = crate::analytic::lambert::clip_polygon(
+                &domain(&mut next, false),
+                |q| plane.height(normal, q),
+                &mut above,
+            );
+            let part = &above[..m];
+            if m < 3 {
+                continue;
+            }
+            let Some(whole) = lobe.convex_sum(part) else { continue };
+            cut += usize::from(part.iter().any(|&q| lobe.height(q) < 0.0));
+            arr.build(part, &segs).expect("general position");
+            let mut clipped = ClippedSum::new(&lobe, &mut crossings);
+            arr.boundary_of(arr.min_rel, |a, b| clipped.piece(a, b));
+            let exact = clipped.finish().expect("the clipped boundary closes") / whole;
+            let share = rows.build(part, &segs, (128, round as u64)).expect("general position");
+            if share.min != arr.min_rel {
+                continue;
+            }
+            let got = rows.lobe_share(&lobe, share.min, 0.0);
+            worst = worst.max((got - exact).abs());
+            sum += got - exact;
+            n += 1;
+        }
+        eprintln!(
+            "{n} cases ({cut} cut by the fit's horizon): worst {worst:.2e}, mean difference {:.2e}",
+            sum / n as f64
+        );
+        assert!(n > 150 && cut > 20, "{n} cases compared, {cut} cut");
+        assert!(worst < 3e-3, "worst {worst}");
+        assert!((sum / n as f64).abs() < 3e-4, "mean difference {}", sum / n as f64);
+    }
 }
