@@ -2,6 +2,7 @@
 //! world-space triangles ([`gltf_load`]), and the scene built in render space
 //! ([`scene_load`]).
 
+mod emitter_lights;
 pub mod gltf_load;
 mod instance_proof;
 mod kept_instances;

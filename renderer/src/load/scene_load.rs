@@ -9,9 +9,9 @@ use crate::geometry::light::RectLight;
 use crate::geometry::material::{Material, Shading};
 use crate::geometry::precision::{f32_spacing, is_degenerate};
 use crate::geometry::scene::{LoadStats, Scene, TriangleShading, camera_frame_ok, cover_depth};
-use crate::load::gltf_load::{EmitterCandidate, Geometry, GltfCamera, SourceTriangle, load_gltf};
+use crate::load::gltf_load::{Geometry, GltfCamera, SourceTriangle, load_gltf};
 use crate::load::precision_tally::PrecisionTally;
-use crate::load::scene_file::{LightDesc, SceneFile, validate_light};
+use crate::load::scene_file::{LightDesc, SceneFile};
 use crate::util::error::SceneError;
 use glam::{DMat4, DQuat, DVec3, Vec2, Vec3};
 use obvhs::triangle::Triangle;
@@ -70,6 +70,7 @@ impl Scene {
             keep_shared: options.keep == KeepInstances::Shared,
             may_keep_instances: options.keep != KeepInstances::Never,
             shading: file.materials.shading,
+            gather_emitters: file.light.is_empty(),
             ..Geometry::default()
         };
         let gltf_camera = load_models(file, scene_path, &mut geometry)?;
@@ -440,9 +441,8 @@ pub fn light_in_render_space(
 }
 
 /// The lights in render space (world minus `world_offset`): the scene file's, or else the
-/// emissive rectangles of the models (double-sided ones facing `scene_centre`, world space;
-/// `scene_extent` the geometry's diagonal). An emissive rectangle f32 cannot hold is skipped
-/// with a line in `warnings`.
+/// emissive rectangles of the models ([`super::emitter_lights`]; `scene_centre` in world
+/// space, `scene_extent` the geometry's diagonal).
 fn scene_lights(
     file: &SceneFile,
     geometry: &Geometry,
@@ -468,25 +468,13 @@ fn scene_lights(
             })
             .collect();
     }
-    let mut found = Vec::new();
-    for e in &geometry.emitters {
-        if let Some(desc) = rectangle_light(e, scene_centre)
-            && validate_light(&desc, "emitter", scene_path).is_ok()
-        {
-            match light_in_render_space(&desc, world_offset, scene_extent) {
-                Ok(light) => found.push(light),
-                Err(e) => warnings.push(format!("an emissive rectangle is not a light: {}", e.message)),
-            }
-        }
-    }
-    if found.is_empty() {
-        return Err(SceneError::new(
-            scene_path,
-            "light",
-            "no [[light]] given and the models have no emissive rectangles",
-        ));
-    }
-    Ok(found)
+    super::emitter_lights::emitter_lights(
+        geometry,
+        (scene_centre, scene_extent),
+        world_offset,
+        scene_path,
+        warnings,
+    )
 }
 
 /// The camera in render space (world minus `world_offset`): the first model's glTF camera
@@ -531,60 +519,4 @@ fn scene_camera(
             (c.yfov_deg as f32).to_radians(),
         ))
     }
-}
-
-/// Fits a rectangle to an emissive primitive: the smallest-area rectangle aligned with one
-/// of its triangle edges that contains every vertex, accepted when the triangles are
-/// coplanar and their total area equals the rectangle's (to 0.1%).
-fn rectangle_light(e: &EmitterCandidate, scene_centre: DVec3) -> Option<LightDesc> {
-    let mut normal = DVec3::ZERO;
-    let mut area = 0.0;
-    for t in &e.triangles {
-        let c = (t[1] - t[0]).cross(t[2] - t[0]);
-        normal += c;
-        area += 0.5 * c.length();
-    }
-    let normal = normal.try_normalize()?;
-    let origin = e.triangles[0][0];
-    let scale = e.triangles.iter().flatten().map(|p| (*p - origin).length()).fold(0.0, f64::max);
-    if e.triangles.iter().flatten().any(|p| (*p - origin).dot(normal).abs() > 1e-4 * scale) {
-        return None; // not planar
-    }
-    let mut best: Option<(f64, DVec3, DVec3, DVec3)> = None;
-    for t in e.triangles.iter().take(16) {
-        for k in 0..3 {
-            let Some(a) = (t[(k + 1) % 3] - t[k]).reject_from(normal).try_normalize() else { continue };
-            let b = normal.cross(a);
-            let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
-            for p in e.triangles.iter().flatten() {
-                let d = *p - origin;
-                let (x, y) = (d.dot(a), d.dot(b));
-                lo = [lo[0].min(x), lo[1].min(y)];
-                hi = [hi[0].max(x), hi[1].max(y)];
-            }
-            let rect_area = (hi[0] - lo[0]) * (hi[1] - lo[1]);
-            if best.is_none_or(|(best_area, ..)| rect_area < best_area) {
-                let centre = origin + a * 0.5 * (lo[0] + hi[0]) + b * 0.5 * (lo[1] + hi[1]);
-                best = Some((rect_area, centre, a * (hi[0] - lo[0]), b * (hi[1] - lo[1])));
-            }
-        }
-    }
-    let (rect_area, center, mut u, v) = best?;
-    if rect_area.is_nan() || rect_area <= 0.0 || (rect_area - area).abs() > 1e-3 * rect_area {
-        return None;
-    }
-    // Emit toward the front face; a double-sided emitter faces the scene's centre.
-    let mut facing = normal;
-    if e.double_sided && (scene_centre - center).dot(facing) < 0.0 {
-        facing = -facing;
-    }
-    if u.cross(v).dot(facing) < 0.0 {
-        u = -u;
-    }
-    Some(LightDesc {
-        center: center.to_array(),
-        u: u.to_array(),
-        v: v.to_array(),
-        radiance: e.radiance.to_array(),
-    })
 }

@@ -42,8 +42,13 @@ pub struct SourceTriangle {
 #[derive(Debug, Clone)]
 pub struct EmitterCandidate {
     pub triangles: Vec<[DVec3; 3]>,
+    /// emissiveFactor x emissive strength (without the texture, where there is one).
     pub radiance: Vec3,
     pub double_sided: bool,
+    /// `FILE: materials[i].emissiveTexture` where its material has an emissive texture: its
+    /// radiance varies over it, which a light's single radiance cannot hold, so it is never
+    /// made a light (the scene says so, naming this).
+    pub emissive_texture: Option<String>,
 }
 
 /// A camera found in a glTF file: its node's world transform and vertical fov (radians).
@@ -63,7 +68,12 @@ pub struct Geometry {
     pub extras: TriangleExtras,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
+    /// Emissive primitives, gathered only when `gather_emitters`.
     pub emitters: Vec<EmitterCandidate>,
+    /// Whether emissive primitives are gathered as candidate lights (the scene file gives no
+    /// `[[light]]`): else they would be copied for nothing (toy-car's body, 89k triangles, is
+    /// emissive through a texture).
+    pub gather_emitters: bool,
     /// Meshes and the instances that place them, which `SourceTriangle::origin` names.
     pub meshes: Vec<MeshTopology>,
     pub instances: Vec<Instance>,
@@ -451,8 +461,8 @@ fn load_mesh_node(
         for placed in placements {
             let instance = geometry.instances.len() as u32;
             geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
-            for (d, p) in data.iter().zip(&prims) {
-                geometry.emitters.extend(emitter_of(d, &p.material(), placed));
+            for (d, p) in data.iter().zip(&prims).filter(|_| geometry.gather_emitters) {
+                geometry.emitters.extend(emitter_of(d, &p.material(), placed, file.path));
             }
             let (primitives, materials) = (data.clone(), materials.clone());
             geometry.placements.push(Placement { primitives, world: placed, materials, instance });
@@ -464,7 +474,7 @@ fn load_mesh_node(
         geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
         let mut origin = TriangleOrigin { instance, local: 0 };
         for prim in &read {
-            place_primitive(prim, placed, origin, geometry);
+            place_primitive(prim, (placed, file.path), origin, geometry);
             origin.local += prim.triangles();
         }
     }

@@ -104,14 +104,14 @@ pub(super) fn read_primitive<'a>(
 }
 
 /// Appends `prim`'s triangles under the world transform `world` to `geometry`, the first as
-/// triangle `origin.local` of its mesh.
+/// triangle `origin.local` of its mesh (`path`: the file it is read from).
 pub(super) fn place_primitive(
     prim: &ReadPrimitive,
-    world: DMat4,
+    (world, path): (DMat4, &Path),
     origin: TriangleOrigin,
     geometry: &mut Geometry,
 ) {
-    push_triangles(world, &prim.data, &prim.material, (prim.mat_id, origin), geometry);
+    push_triangles((world, path), &prim.data, &prim.material, (prim.mat_id, origin), geometry);
 }
 
 /// POSITION, NORMAL, TEXCOORD_`uv_set` and the indices of `prim`, each checked (when
@@ -241,10 +241,10 @@ pub(super) fn triangle_corners(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
 }
 
 /// Appends a primitive's triangles (`corners` into `vertices`) to `geometry` in world space,
-/// counting and dropping those of zero area. Those of an emissive material (without an
-/// emissive texture) also become one emitter candidate.
+/// counting and dropping those of zero area. Those of an emissive material also become one
+/// emitter candidate (`path`, the file, names its emissive texture where it has one).
 pub(super) fn push_triangles(
-    world: DMat4,
+    (world, path): (DMat4, &Path),
     data: &PrimitiveData,
     material: &gltf::Material,
     (mat_id, origin): (u32, TriangleOrigin),
@@ -253,7 +253,7 @@ pub(super) fn push_triangles(
     let PrimitiveData { positions, normals, uvs, corners, .. } = data;
     let has_extras = data.uv2.is_some() || data.colors.is_some() || data.tangents.is_some();
     let placing = Placing::new(world);
-    let emissive = emission(material);
+    let emissive = emission(material, path).filter(|_| geometry.gather_emitters);
     let mut emitter_tris = Vec::new();
     for (local, &c) in (origin.local..).zip(corners) {
         let origin = TriangleOrigin { local, ..origin };
@@ -277,31 +277,36 @@ pub(super) fn push_triangles(
             emitter_tris.push(p);
         }
     }
-    if let Some(radiance) = emissive.filter(|_| !emitter_tris.is_empty()) {
+    if let Some((radiance, emissive_texture)) = emissive.filter(|_| !emitter_tris.is_empty()) {
         geometry.emitters.push(EmitterCandidate {
             triangles: emitter_tris,
             radiance,
             double_sided: material.double_sided(),
+            emissive_texture,
         });
     }
 }
 
-/// A material's emitted radiance where its triangles can make a light: emissiveFactor x
-/// emissive strength, positive and finite, without an emissive texture.
-fn emission(material: &gltf::Material) -> Option<Vec3> {
+/// A material's emission where it is positive and finite: emissiveFactor x emissive strength,
+/// and `FILE: materials[i].emissiveTexture` (`path` the file) where a texture varies it.
+fn emission(material: &gltf::Material, path: &Path) -> Option<(Vec3, Option<String>)> {
     let emissive = Vec3::from(material.emissive_factor()) * material.emissive_strength().unwrap_or(1.0);
-    (emissive.max_element() > 0.0 && material.emissive_texture().is_none() && emissive.is_finite())
-        .then_some(emissive)
+    let texture = material
+        .emissive_texture()
+        .map(|_| format!("{}: materials[{}].emissiveTexture", path.display(), material.index().unwrap_or(0)));
+    (emissive.max_element() > 0.0 && emissive.is_finite()).then_some((emissive, texture))
 }
 
 /// The emitter candidate of `prim` placed by `world` (its non-degenerate triangles in world
-/// space, as [`push_triangles`] collects them), for a placement kept unflattened.
+/// space, as [`push_triangles`] collects them), for a placement kept unflattened; `path` is
+/// the file.
 pub(super) fn emitter_of(
     data: &PrimitiveData,
     material: &gltf::Material,
     world: DMat4,
+    path: &Path,
 ) -> Option<EmitterCandidate> {
-    let radiance = emission(material)?;
+    let (radiance, emissive_texture) = emission(material, path)?;
     let placing = Placing::new(world);
     let triangles: Vec<[DVec3; 3]> = data
         .corners
@@ -313,6 +318,7 @@ pub(super) fn emitter_of(
         triangles,
         radiance,
         double_sided: material.double_sided(),
+        emissive_texture,
     })
 }
 
