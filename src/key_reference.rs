@@ -37,7 +37,7 @@ struct by `tests/scene_keys.rs` as the method tables are).
 
 | key | type | default | meaning |
 |---|---|---|---|
-| `shading` | string | `"gltf"` | `"gltf"`: as the files define them (metallic-roughness read, normal textures bend the shading normal, which the light's irradiance and every shadow method's horizon use; the surface is still shaded as a two-sided Lambertian of its base colour, no glossy BRDF yet); `"diffuse"`: every surface a two-sided Lambertian of its base colour with its interpolated normal, the renders of before materials were read, byte for byte; `--shading` overrides it |
+| `shading` | string | `"gltf"` | `"gltf"`: as the files define them (the glTF BRDF, metallic-roughness GGX; normal textures bend the shading normal, which the light's irradiance and every shadow method's horizon use; emission seen by the camera and bounces); `"diffuse"`: every surface a two-sided Lambertian of its base colour with its interpolated normal, the renders of before materials were read, byte for byte; `--shading` overrides it |
 
 ## `[shadows]`
 
