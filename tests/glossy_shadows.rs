@@ -48,10 +48,9 @@ fn lobe(p: Vec3, roughness: f32) -> GlossyLobe {
     GlossyLobe::new(Vec3::Y, wo, roughness).expect("the eye is above the floor")
 }
 
-/// The glossy share at `p` by quadrature in f64: D Vis g over the visible light over the
-/// same over the whole light.
-fn quadrature(p: Vec3, roughness: f32) -> f64 {
-    let lobe = lobe(p, roughness);
+/// The share of `weight(w)` (w from `p` to a light point) that arrives at `p`, by a
+/// 600 x 600 midpoint grid over the light in f64: over the visible light over the whole.
+fn share_by_quadrature(p: Vec3, weight: impl Fn(DVec3) -> f64) -> f64 {
     let p = p.as_dvec3();
     let n = 600;
     let (mut seen, mut all) = (0.0, 0.0);
@@ -60,21 +59,27 @@ fn quadrature(p: Vec3, roughness: f32) -> f64 {
             let y =
                 DVec3::new(-0.5 + (i as f64 + 0.5) / n as f64, LIGHT_Y, -0.5 + (j as f64 + 0.5) / n as f64);
             let w = y - p;
-            let r2 = w.length_squared();
-            // cos at the floor (normal +y) and at the light (normal -y): both w.y / r.
-            let g = (w.y * w.y) / (r2 * r2);
-            let f = lobe_factor_f64(&lobe, w);
-            let weight = g * f;
+            let weight = weight(w);
             all += weight;
             let t = (CARD[4] - p.y) / w.y;
             let c = p + t * w;
-            let hidden = (CARD[0]..=CARD[1]).contains(&c.x) && (CARD[2]..=CARD[3]).contains(&c.z);
-            if !hidden {
+            if !((CARD[0]..=CARD[1]).contains(&c.x) && (CARD[2]..=CARD[3]).contains(&c.z)) {
                 seen += weight;
             }
         }
     }
     seen / all
+}
+
+/// The glossy share at `p` by quadrature in f64: D Vis g over the visible light over the
+/// same over the whole light.
+fn quadrature(p: Vec3, roughness: f32) -> f64 {
+    let lobe = lobe(p, roughness);
+    share_by_quadrature(p, |w| {
+        let r2 = w.length_squared();
+        // cos at the floor (normal +y) and at the light (normal -y): both w.y / r.
+        (w.y * w.y) / (r2 * r2) * lobe_factor_f64(&lobe, w)
+    })
 }
 
 /// D Vis at the light point `w` away, in f64 (the lobe's own f32 factor is what methods
@@ -148,30 +153,12 @@ fn silhouette_gives_traceds_glossy_bits() {
 /// times cos(theta_y) / r^2), which `analytic` integrates in closed form.
 fn ltc_quadrature(p: Vec3, roughness: f32) -> f64 {
     let lobe = lobe(p, roughness);
-    let p = p.as_dvec3();
     let [x, y, z] = lobe.frame.map(|r| r.as_dvec3());
-    let n = 600;
-    let (mut seen, mut all) = (0.0, 0.0);
-    for i in 0..n {
-        for j in 0..n {
-            let q =
-                DVec3::new(-0.5 + (i as f64 + 0.5) / n as f64, LIGHT_Y, -0.5 + (j as f64 + 0.5) / n as f64);
-            let w = q - p;
-            let local = DVec3::new(x.dot(w), y.dot(w), z.dot(w));
-            if local.z <= 0.0 {
-                continue;
-            }
-            let r2 = w.length_squared();
-            let weight = lobe.ltc.density(local) * w.y / (r2 * r2.sqrt());
-            all += weight;
-            let t = (CARD[4] - p.y) / w.y;
-            let c = p + t * w;
-            if !((CARD[0]..=CARD[1]).contains(&c.x) && (CARD[2]..=CARD[3]).contains(&c.z)) {
-                seen += weight;
-            }
-        }
-    }
-    seen / all
+    share_by_quadrature(p, |w| {
+        let local = DVec3::new(x.dot(w), y.dot(w), z.dot(w));
+        let r2 = w.length_squared();
+        if local.z <= 0.0 { 0.0 } else { lobe.ltc.density(local) * w.y / (r2 * r2.sqrt()) }
+    })
 }
 
 /// `analytic`'s glossy share is exact for the lobe it integrates, the LTC fit: within 1e-5
