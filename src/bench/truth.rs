@@ -27,7 +27,10 @@ use std::path::{Path, PathBuf};
 /// under near lights.
 /// v4: glTF normal textures bend the shading normal (`[materials] shading = "gltf"`, the
 /// default): toy-car's and glass-vase-flowers' truths change.
-pub const TRUTH_VERSION: &str = "traced-v4";
+/// v5: alphaMode BLEND is coverage, no longer MASK 0.5 (`renderer::geometry::coverage`):
+/// glass-vase-flowers' glass (alpha 0.3) and flight-helmet's lenses stop the share of light their
+/// alpha says.
+pub const TRUTH_VERSION: &str = "traced-v5";
 
 /// Mixed into the seed, so the truth's light samples are independent of the swept
 /// `traced` runs' (which use the bench seed itself).

@@ -250,7 +250,8 @@ pub fn smooth_soups(dir: &TempDir, seed: u64) -> Vec<PathBuf> {
 
 /// The materials of [`alpha_soups`]: opaque; the banded texture (repeat, cutoff 0.5); the
 /// same texture rotated, scaled and offset by KHR_texture_transform (mirrored repeat, cutoff
-/// 0.4); a constant alpha under the cutoff (glass as BLEND); a constant alpha over it.
+/// 0.4); glass as BLEND of alpha 0.3 (coverage: mixed, a hole or not point by point); a
+/// constant alpha over the cutoff.
 fn alpha_materials(g: &mut GltfBuilder) -> Vec<usize> {
     let repeat = g.texture_png_wrapped("bands.png", 10497, 10497);
     let mirrored = g.texture_png_wrapped("bands.png", 33648, 10497);

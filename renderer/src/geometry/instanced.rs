@@ -14,7 +14,9 @@
 //! the fly): `traced` renders 14-31% slower than from stored triangles.
 
 use crate::geometry::attributes::CornerExtras;
-use crate::geometry::instances::{Placing, PrimitiveData};
+use crate::geometry::coverage::CoveragePoint;
+use crate::geometry::instances::{Placing, PrimitiveData, TriangleOrigin};
+use crate::geometry::surface::interpolate;
 use glam::{DMat3, DMat4, DVec3, Vec2, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
@@ -32,6 +34,9 @@ pub struct StoredMesh {
     /// one load instead of three dependent ones, no conversion).
     pub points: Vec<[DVec3; 3]>,
     pub bvh: Bvh2,
+    /// Per primitive: the index in the mesh of its first triangle (as the flattened scene's
+    /// [`TriangleOrigin::local`] counts them), which keys BLEND's coverage.
+    pub first_local: Vec<u32>,
 }
 
 /// One instance: its mesh, transform and materials.
@@ -121,6 +126,24 @@ impl InstancedScene {
             }
             None => Vec2::ZERO,
         }
+    }
+
+    /// Where on the placed triangle at `slot` of `p`'s mesh tree barycentrics (b1, b2) lie,
+    /// as BLEND's coverage reads it: the point of the triangle the flattened scene holds
+    /// (its instance and index in its mesh; its COLOR_0 alpha there).
+    pub fn coverage_point(
+        &self,
+        p: &Placed,
+        t: &PlacedTriangle,
+        slot: usize,
+        b1: f32,
+        b2: f32,
+    ) -> CoveragePoint {
+        let mesh = &self.meshes[p.mesh as usize];
+        let local = mesh.first_local[t.primitive as usize] + mesh.slots[slot][1];
+        let colors = mesh.primitives[t.primitive as usize].colors.as_ref();
+        let color_alpha = colors.map_or(1.0, |c| interpolate(t.corners.map(|i| c[i as usize][3]), b1, b2));
+        CoveragePoint { triangle: TriangleOrigin { instance: p.instance, local }, b1, b2, color_alpha }
     }
 
     /// The corners' world normals of a placed triangle (`None`: the face normal stands in).

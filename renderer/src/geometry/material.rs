@@ -1,10 +1,12 @@
 //! Materials as glTF's metallic-roughness model defines them: base colour (factor x sRGB
 //! texture), metallic and roughness (factors x a linear texture's B and G), a normal texture
-//! with its scale, emission (factor x strength x sRGB texture) and the alpha mode. Every
+//! with its scale, emission (factor x strength x sRGB texture) and the alpha mode (MASK's
+//! cutoff, or BLEND's coverage: [`crate::geometry::coverage`]). Every
 //! texture reference keeps its own texture-coordinate set, sampler and transform. What the
 //! renderer shades with today is the base colour (two-sided Lambertian); the rest is read by
 //! [`crate::geometry::surface`].
 
+use crate::geometry::coverage::{COVERAGE_MAX, COVERAGE_MIN, CoveragePoint};
 use glam::{Affine2, Vec2, Vec3, Vec4};
 use serde::Deserialize;
 use std::sync::OnceLock;
@@ -201,10 +203,27 @@ pub struct NormalTexture {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum AlphaMode {
     Opaque,
-    /// Surfaces with alpha < cutoff are holes, for every ray (BLEND is read as MASK 0.5).
+    /// Surfaces with alpha < cutoff are holes, for every ray.
     Mask {
         cutoff: f32,
     },
+    /// glTF's BLEND as coverage: a surface of alpha a stops a share a of what crosses it.
+    /// Each point is a hole where its alpha (x COLOR_0's) is under a threshold of its own,
+    /// white noise keyed by the point ([`crate::geometry::coverage`]).
+    Blend,
+}
+
+impl AlphaMode {
+    /// The lowest and highest cutoff the test compares a point's alpha with: an alpha under
+    /// the first is a hole wherever it is read, one at or over the second never is. `None`
+    /// without a test.
+    pub fn cutoffs(self) -> Option<(f32, f32)> {
+        match self {
+            AlphaMode::Opaque => None,
+            AlphaMode::Mask { cutoff } => Some((cutoff, cutoff)),
+            AlphaMode::Blend => Some((COVERAGE_MIN, COVERAGE_MAX)),
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -279,12 +298,14 @@ impl Material {
         }
     }
 
-    /// Whether a hit at `uv` is a hole under the alpha test.
+    /// Whether a hit at `uv` is a hole under the alpha test. `point` says where the hit
+    /// lies, asked only of a BLEND material (its coverage is keyed by the point).
     #[inline]
-    pub fn is_cutout(&self, uv: Vec2, textures: &[Texture]) -> bool {
+    pub fn is_cutout(&self, uv: Vec2, textures: &[Texture], point: impl FnOnce() -> CoveragePoint) -> bool {
         match self.alpha {
             AlphaMode::Opaque => false,
             AlphaMode::Mask { cutoff } => self.base_color_at(uv, textures).w < cutoff,
+            AlphaMode::Blend => point().is_hole(self.base_color_at(uv, textures).w),
         }
     }
 }

@@ -4,6 +4,7 @@
 
 pub mod attributes;
 pub mod camera;
+pub mod coverage;
 pub mod horizon_warp;
 pub mod instanced;
 pub mod instances;

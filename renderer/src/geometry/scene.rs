@@ -4,12 +4,14 @@
 
 use crate::geometry::attributes::TriangleExtras;
 use crate::geometry::camera::Camera;
+use crate::geometry::coverage::CoveragePoint;
 use crate::geometry::instanced::InstancedScene;
 use crate::geometry::instances::{Instance, MeshTopology, TriangleOrigin};
 use crate::geometry::light::RectLight;
 use crate::geometry::material::{Material, Shading, Texture};
 use crate::geometry::point::ShadingPoint;
 use crate::geometry::ray_origin::{shadow_ray, shadow_ray_from};
+use crate::geometry::surface::interpolate;
 use crate::geometry::watertight::{HitPoint, ShearedRay, walkable};
 use glam::{DVec3, Vec2, Vec3};
 use obvhs::{BvhBuildParams, bvh2::Bvh2, ray::Ray, triangle::Triangle};
@@ -212,6 +214,19 @@ impl Scene {
         if cos > 0.0 || (cos == 0.0 && n.dot(n_geom) < 0.0) { -n } else { n }
     }
 
+    /// Where barycentrics (b1, b2) of triangle `slot` lie, as BLEND's coverage reads it: its
+    /// instance and index in its mesh (not its slot, so a kept copy reads the same pattern;
+    /// the slot for a triangle of no mesh), and its COLOR_0 alpha there.
+    #[inline]
+    fn coverage_point(&self, slot: usize, b1: f32, b2: f32) -> CoveragePoint {
+        let triangle = match self.origins.get(slot) {
+            Some(o) if !o.is_loose() => *o,
+            _ => TriangleOrigin { instance: u32::MAX, local: slot as u32 },
+        };
+        let color_alpha = self.extras.color.get(slot).map_or(1.0, |c| interpolate(c.map(|c| c.w), b1, b2));
+        CoveragePoint { triangle, b1, b2, color_alpha }
+    }
+
     #[inline]
     fn uv_at(&self, slot: usize, b1: f32, b2: f32) -> Vec2 {
         let uv = &self.shading[slot].uv;
@@ -229,7 +244,8 @@ impl Scene {
             Some((t, b1, b2)) => {
                 if self.any_alpha_test {
                     let m = &self.materials[self.shading[slot].material as usize];
-                    if m.is_cutout(self.uv_at(slot, b1, b2), &self.textures) {
+                    let point = || self.coverage_point(slot, b1, b2);
+                    if m.is_cutout(self.uv_at(slot, b1, b2), &self.textures, point) {
                         return f32::INFINITY;
                     }
                 }
@@ -256,7 +272,8 @@ impl Scene {
                 if self.any_alpha_test {
                     let t = inst.triangle(p, slot);
                     let m = &self.materials[p.materials[t.primitive as usize] as usize];
-                    if m.is_cutout(inst.uv_at(p, &t, b1, b2), &self.textures) {
+                    let point = || inst.coverage_point(p, &t, slot, b1, b2);
+                    if m.is_cutout(inst.uv_at(p, &t, b1, b2), &self.textures, point) {
                         return f32::INFINITY;
                     }
                 }
@@ -446,11 +463,15 @@ impl Scene {
 
     /// Whether the alpha test cuts out the point of triangle `slot` at barycentrics (b1, b2)
     /// (weights of its second and third corners): the test a ray's hit gets, for a method
-    /// that finds the point on the triangle without a ray.
+    /// that finds the point on the triangle without a ray (BLEND's coverage at that point:
+    /// the pattern a ray meeting it there reads).
     pub fn cut_out_at(&self, slot: usize, b1: f32, b2: f32) -> bool {
         self.any_alpha_test
-            && self.materials[self.shading[slot].material as usize]
-                .is_cutout(self.uv_at(slot, b1, b2), &self.textures)
+            && self.materials[self.shading[slot].material as usize].is_cutout(
+                self.uv_at(slot, b1, b2),
+                &self.textures,
+                || self.coverage_point(slot, b1, b2),
+            )
     }
 
     /// Whether the shadow ray [`Scene::segment_occluded_from`] builds meets any of the

@@ -250,5 +250,13 @@ fn stored(primitives: Arc<Vec<PrimitiveData>>, dropped: &[u32], pad: f64) -> Sto
         n.aabb.min -= Vec3A::splat(grow);
         n.aabb.max += Vec3A::splat(grow);
     }
-    StoredMesh { primitives, slots, points, bvh }
+    let first_local = primitives
+        .iter()
+        .scan(0u32, |n, d| {
+            let first = *n;
+            *n += d.corners.len() as u32;
+            Some(first)
+        })
+        .collect();
+    StoredMesh { primitives, slots, points, bvh, first_local }
 }

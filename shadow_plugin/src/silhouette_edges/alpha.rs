@@ -13,6 +13,13 @@
 //! Every texel alpha at or above the cutoff with that margin: the test never cuts a hole,
 //! the triangle is opaque. Every one below it with that margin: the test always cuts a
 //! hole, no ray ever stops on it, and it is dropped. Otherwise it is mixed.
+//!
+//! BLEND's coverage compares each point's alpha (x COLOR_0's) with a threshold of its own
+//! in [`COVERAGE_MIN`, `COVERAGE_MAX`] ([`renderer::geometry::coverage`]): the same
+//! classes against that range, so a pane of alpha 1 is opaque, of alpha 0 clear, and
+//! anything between mixed (sampled point by point, as `traced` meets it). COLOR_0 may
+//! scale the alpha of a triangle: one whose corners' alphas are not all 1 stays opaque only
+//! if they are all at least 1, clear only if all at most 1, and is mixed otherwise.
 
 use glam::{DVec2, Vec2};
 use rayon::prelude::*;
@@ -56,6 +63,12 @@ const MAX_TEXEL_COORDINATE: f64 = (1u64 << 40) as f64;
 const SOLID: u8 = 1;
 const HOLE: u8 = 2;
 
+/// Relative bound on what BLEND's COLOR_0 factor does to an alpha where the corners' alphas
+/// are all 1 (or all at least, or at most, 1): their interpolation is within ~6 ulps of the
+/// bound (weights summing to 1 within rounding), and the product rounds once more; bounded
+/// with a twofold margin.
+const COLOR_ERROR: f64 = 1e-6;
+
 /// The class of every triangle slot of `scene` (BVH order). Parallel over the triangles;
 /// the answer does not depend on the thread count.
 pub fn classify(scene: &Scene) -> Vec<AlphaClass> {
@@ -67,9 +80,67 @@ pub fn classify(scene: &Scene) -> Vec<AlphaClass> {
         .with_min_len(1024)
         .map_init(Footprint::default, |footprint, slot| {
             let shading = &scene.shading[slot];
-            materials[shading.material as usize].classify(shading.uv, &scene.textures, footprint)
+            let class = materials[shading.material as usize].classify(shading.uv, &scene.textures, footprint);
+            match scene.materials[shading.material as usize].alpha {
+                AlphaMode::Blend => with_colors(class, scene.extras.color.get(slot)),
+                _ => class,
+            }
         })
         .collect()
+}
+
+/// A BLEND triangle's class with its COLOR_0 (corners' RGBA, if any), which scales its alpha:
+/// opaque stays so where every corner's alpha is at least 1, clear where every one is at
+/// most 1 ([`COLOR_ERROR`] covers the interpolation's rounding); otherwise either may change.
+pub fn with_colors(class: AlphaClass, colors: Option<[glam::Vec4; 3]>) -> AlphaClass {
+    let Some(c) = colors else { return class };
+    let alphas = c.map(|c| c.w);
+    match class {
+        AlphaClass::Opaque if alphas.iter().all(|&a| a >= 1.0) => class,
+        AlphaClass::Clear if alphas.iter().all(|&a| a <= 1.0) => class,
+        AlphaClass::Opaque | AlphaClass::Clear => AlphaClass::Mixed,
+        AlphaClass::NoTest | AlphaClass::Mixed => class,
+    }
+}
+
+/// The alphas a material's test compares with a point's: under `hole_below` a hole wherever
+/// read, at or over `solid_at` never a hole. MASK's cutoff twice; BLEND's range of
+/// thresholds moved out by [`COLOR_ERROR`].
+#[derive(Debug, Clone, Copy)]
+struct Cutoffs {
+    hole_below: f64,
+    solid_at: f64,
+    /// MASK's one cutoff: what is not under it is opaque, as the renderer's test reads it
+    /// (NaN included).
+    single: bool,
+}
+
+impl Cutoffs {
+    fn of(alpha: AlphaMode) -> Option<Cutoffs> {
+        let (lo, hi) = alpha.cutoffs()?;
+        let (lo, hi) = (lo as f64, hi as f64);
+        Some(match alpha {
+            AlphaMode::Blend => Cutoffs {
+                hole_below: lo / (1.0 + COLOR_ERROR),
+                solid_at: hi / (1.0 - COLOR_ERROR),
+                single: false,
+            },
+            _ => Cutoffs { hole_below: lo, solid_at: hi, single: true },
+        })
+    }
+
+    /// The class of a triangle that reads the one alpha `alpha` (MASK: the renderer's own
+    /// comparison, `alpha < cutoff`).
+    fn class(self, alpha: f32) -> AlphaClass {
+        let a = alpha as f64;
+        if a < self.hole_below {
+            AlphaClass::Clear
+        } else if self.single || a >= self.solid_at {
+            AlphaClass::Opaque
+        } else {
+            AlphaClass::Mixed
+        }
+    }
 }
 
 /// One material's alpha test, ready to classify triangles.
@@ -86,6 +157,7 @@ pub enum MaterialAlpha {
 #[derive(Debug)]
 pub struct TexturedAlpha {
     material: Material,
+    cutoffs: Cutoffs,
     texture: TextureRef,
     classes: [u8; 256],
     /// The class of a lookup that may read any texel (a footprint too large to scan).
@@ -95,16 +167,16 @@ pub struct TexturedAlpha {
 impl MaterialAlpha {
     /// The test of `material`; `ranges` caches, per texture, which alpha codes it holds.
     pub fn new(material: &Material, textures: &[Texture], ranges: &mut [Option<[bool; 256]>]) -> Self {
-        let AlphaMode::Mask { cutoff } = material.alpha else { return Self::Uniform(AlphaClass::NoTest) };
+        let Some(cutoffs) = Cutoffs::of(material.alpha) else { return Self::Uniform(AlphaClass::NoTest) };
         let Some(texture) = material.base_color_texture else {
-            // A constant alpha: the renderer's own test, at any UV, is the answer.
-            return Self::Uniform(exact_class(material, Vec2::ZERO, textures));
+            // A constant alpha: the renderer's own comparison of it, at any UV, is the answer.
+            return Self::Uniform(cutoffs.class(material.base_color_at(Vec2::ZERO, textures).w));
         };
         let image = &textures[texture.texture as usize];
         if image.width == 0 || image.height == 0 {
             return Self::Uniform(AlphaClass::Mixed);
         }
-        let classes = std::array::from_fn(|code| texel_class(material.base_color.w, cutoff, code as u8));
+        let classes = std::array::from_fn(|code| texel_class(material.base_color.w, cutoffs, code as u8));
         let present = ranges[texture.texture as usize].get_or_insert_with(|| {
             let mut present = [false; 256];
             for texel in &image.rgba8 {
@@ -117,7 +189,7 @@ impl MaterialAlpha {
         if whole != AlphaClass::Mixed {
             return Self::Uniform(whole);
         }
-        Self::Textured(Box::new(TexturedAlpha { material: *material, texture, classes, whole }))
+        Self::Textured(Box::new(TexturedAlpha { material: *material, cutoffs, texture, classes, whole }))
     }
 
     /// The class of a triangle with texture coordinates `uv`.
@@ -133,7 +205,7 @@ impl TexturedAlpha {
     fn classify(&self, uv: [Vec2; 3], textures: &[Texture], footprint: &mut Footprint) -> AlphaClass {
         let image = &textures[self.texture.texture as usize];
         match footprint.fill(&self.texture, image, uv) {
-            Reads::TexelZero => exact_class(&self.material, Vec2::NAN, textures),
+            Reads::TexelZero => self.cutoffs.class(self.material.base_color_at(Vec2::NAN, textures).w),
             Reads::Any => self.whole,
             Reads::Texels => {
                 let width = image.width as usize;
@@ -152,11 +224,6 @@ impl TexturedAlpha {
     }
 }
 
-/// The renderer's own test at `uv`, as the class of a triangle that reads only that value.
-fn exact_class(material: &Material, uv: Vec2, textures: &[Texture]) -> AlphaClass {
-    if material.is_cutout(uv, textures) { AlphaClass::Clear } else { AlphaClass::Opaque }
-}
-
 fn class_of(bits: u8) -> AlphaClass {
     match bits {
         SOLID => AlphaClass::Opaque,
@@ -166,19 +233,20 @@ fn class_of(bits: u8) -> AlphaClass {
 }
 
 /// The class bits of the 8-bit texel alpha `code` (read as `code as f32 / 255.0`) under
-/// `alpha = w * filtered` against `cutoff`: the filtered value is within [`FILTER_ERROR`]
+/// `alpha = w * filtered` against `cutoffs`: the filtered value is within [`FILTER_ERROR`]
 /// of the texels' range, and the product rounds once more (relative 2^-24).
-fn texel_class(w: f32, cutoff: f32, code: u8) -> u8 {
-    if !(w.is_finite() && cutoff.is_finite()) {
+fn texel_class(w: f32, cutoffs: Cutoffs, code: u8) -> u8 {
+    let Cutoffs { hole_below, solid_at, .. } = cutoffs;
+    if !(w.is_finite() && hole_below.is_finite() && solid_at.is_finite()) {
         return 0;
     }
-    let (w, cutoff) = (w as f64, cutoff as f64);
+    let w = w as f64;
     let s = code as f64 / 255.0;
     let (a, b) = (w * (s - FILTER_ERROR), w * (s + FILTER_ERROR));
     let margin = FILTER_ERROR * w.abs();
-    if a.min(b) - margin >= cutoff {
+    if a.min(b) - margin >= solid_at {
         SOLID
-    } else if a.max(b) + margin < cutoff {
+    } else if a.max(b) + margin < hole_below {
         HOLE
     } else {
         0

@@ -2,7 +2,43 @@
 
 use super::*;
 use glam::{Affine2, Vec4};
+use renderer::geometry::coverage::{COVERAGE_MAX, COVERAGE_MIN, CoveragePoint};
+use renderer::geometry::instances::TriangleOrigin;
 use renderer::util::random::Rng;
+
+/// The renderer's test of a MASK material at `uv` (it reads no point).
+fn mask_cut(m: &Material, uv: Vec2, t: &[Texture]) -> bool {
+    m.is_cutout(uv, t, || unreachable!("a MASK test reads no point"))
+}
+
+/// Points of BLEND's lowest and highest thresholds (the first found among 2^20 positions):
+/// the test at them is the test under every threshold.
+fn extreme_points() -> (CoveragePoint, CoveragePoint) {
+    static POINTS: std::sync::OnceLock<(CoveragePoint, CoveragePoint)> = std::sync::OnceLock::new();
+    *POINTS.get_or_init(|| {
+        let at = |k: u32| CoveragePoint {
+            triangle: TriangleOrigin { instance: 0, local: 0 },
+            b1: k as f32 * 1e-7,
+            b2: 0.0,
+            color_alpha: 1.0,
+        };
+        let find = |t: f32| (0..1 << 20).map(at).find(|p| p.threshold() == t).expect("found");
+        (find(COVERAGE_MIN), find(COVERAGE_MAX))
+    })
+}
+
+/// The renderer's test at `uv` wherever on a triangle the hit lies: `Some(cut)` if every
+/// point there reads the same (BLEND: whatever its threshold), `None` if the point decides.
+fn cut_anywhere(m: &Material, uv: Vec2, t: &[Texture]) -> Option<bool> {
+    match m.alpha {
+        AlphaMode::Blend => {
+            let (lo, hi) = extreme_points();
+            let (under_lo, under_hi) = (m.is_cutout(uv, t, || lo), m.is_cutout(uv, t, || hi));
+            (under_lo == under_hi).then_some(under_lo)
+        }
+        _ => Some(mask_cut(m, uv, t)),
+    }
+}
 
 /// 64 x 64: alpha 0 for the columns x < 32 (u < 0.5), 255 for the others.
 fn half() -> Texture {
@@ -125,7 +161,7 @@ fn non_finite_coordinates_read_texel_zero() {
     let mut uv = tri(0.6, 0.9);
     uv[1].y = f32::INFINITY;
     assert_eq!(class(&m, &t, uv), AlphaClass::Clear);
-    assert!(m.is_cutout(uv_at(uv, 0.0, 0.5), &t));
+    assert!(mask_cut(&m, uv_at(uv, 0.0, 0.5), &t));
     uv[1].y = f32::NAN;
     assert_eq!(class(&m, &t, uv), AlphaClass::Clear);
 }
@@ -140,7 +176,7 @@ fn the_filters_rounding_keeps_a_cutoff_at_the_texel_value_mixed() {
         let m = masked(Wrap::Repeat, Affine2::IDENTITY, 1.0, code as f32 / 255.0);
         assert_eq!(class(&m, &t, tri(0.1, 0.9)), AlphaClass::Mixed, "alpha {code}");
         let probes = (1..2000).map(|k| Vec2::new(k as f32 * 0.000_731, 0.3));
-        rounded_under += probes.filter(|&uv| m.is_cutout(uv, &t)).count();
+        rounded_under += probes.filter(|&uv| mask_cut(&m, uv, &t)).count();
         // Half a code under it: opaque.
         let m = masked(Wrap::Repeat, Affine2::IDENTITY, 1.0, (code as f32 - 0.5) / 255.0);
         assert_eq!(class(&m, &t, tri(0.1, 0.9)), AlphaClass::Opaque, "alpha {code}");
@@ -164,8 +200,9 @@ fn footprints_beyond_the_cap_use_the_whole_texture() {
     assert_eq!(class(&m, &opaque, [Vec2::splat(-1e30), Vec2::splat(1e30), Vec2::ZERO]), AlphaClass::Opaque);
 }
 
-/// Random small textures, materials, wrap modes and triangles: no lookup the intersector
-/// can make on an opaque triangle cuts a hole, and every one on a clear triangle does.
+/// Random small textures, materials (MASK, and one case in five BLEND), wrap modes and
+/// triangles: no lookup the intersector can make on an opaque triangle cuts a hole, and every
+/// one on a clear triangle does (BLEND: at every threshold).
 #[test]
 fn classes_agree_with_the_test_at_every_probed_hit() {
     let mut rng = Rng::new(7);
@@ -195,7 +232,10 @@ fn classes_agree_with_the_test_at_every_probed_hit() {
         }];
         let wrap = [Wrap::Repeat, Wrap::MirroredRepeat, Wrap::ClampToEdge][case % 3];
         let transform = if case % 4 == 0 { Affine2::from_angle(r() * 6.0) } else { Affine2::IDENTITY };
-        let m = masked(wrap, transform, [1.0, 0.8, 0.5][case % 3], [0.5, 0.25, 0.5, 0.0][case % 4]);
+        let mut m = masked(wrap, transform, [1.0, 0.8, 0.5][case % 3], [0.5, 0.25, 0.5, 0.0][case % 4]);
+        if case % 5 == 4 {
+            m.alpha = AlphaMode::Blend;
+        }
         let c = Vec2::new(r() * 3.0 - 1.5, r() * 3.0 - 1.5);
         let s = [0.02, 0.2, 1.0][case % 3] * r();
         let uv = [c, c + s * Vec2::new(r(), r()), c + s * Vec2::new(r(), -r())];
@@ -210,9 +250,63 @@ fn classes_agree_with_the_test_at_every_probed_hit() {
             for j in 0..=64 - i {
                 let (b1, b2) = (i as f32 / 64.0, j as f32 / 64.0);
                 let p = uv_at(uv, b1, b2);
-                assert_eq!(m.is_cutout(p, &t), expect_cut, "case {case}: {got:?} at {p} of {uv:?}");
+                assert_eq!(
+                    cut_anywhere(&m, p, &t),
+                    Some(expect_cut),
+                    "case {case}: {got:?} at {p} of {uv:?}"
+                );
             }
         }
     }
     assert!(seen[0] > 100 && seen[1] > 100, "too few opaque ({}) or clear ({}) cases", seen[0], seen[1]);
+}
+
+fn blend(w: f32, texture: bool) -> Material {
+    let m = masked(Wrap::Repeat, Affine2::IDENTITY, w, 0.5);
+    Material { alpha: AlphaMode::Blend, base_color_texture: m.base_color_texture.filter(|_| texture), ..m }
+}
+
+/// A BLEND pane is opaque at alpha 1, clear at alpha 0 and mixed between, however close to
+/// either (the thresholds reach within 2^-17 of both); over a texture, by the texels its
+/// footprint reads, a wholly opaque (255) texture opaque through the filter's rounding.
+#[test]
+fn blend_panes_are_classed_by_their_alpha() {
+    let uv = tri(0.0, 1.0);
+    assert_eq!(class(&blend(1.0, false), &[], uv), AlphaClass::Opaque);
+    assert_eq!(class(&blend(0.0, false), &[], uv), AlphaClass::Clear);
+    for w in [0.3, 1e-4, 0.9999] {
+        assert_eq!(class(&blend(w, false), &[], uv), AlphaClass::Mixed, "alpha {w}");
+    }
+    let t = [half()];
+    assert_eq!(class(&blend(1.0, true), &t, tri(0.6, 0.95)), AlphaClass::Opaque);
+    assert_eq!(class(&blend(1.0, true), &t, tri(0.05, 0.4)), AlphaClass::Clear);
+    assert_eq!(class(&blend(1.0, true), &t, tri(0.3, 0.7)), AlphaClass::Mixed);
+    // The opaque half at factor 0.5: every point reads 0.5, a hole or not by its threshold.
+    assert_eq!(class(&blend(0.5, true), &t, tri(0.6, 0.95)), AlphaClass::Mixed);
+    let white = [Texture { width: 4, height: 4, rgba8: vec![[255; 4]; 16] }];
+    assert_eq!(class(&blend(1.0, true), &white, tri(-3.0, 7.0)), AlphaClass::Opaque);
+    // One code under 255 is a share 1/255 of holes: mixed.
+    let nearly = [Texture { width: 4, height: 4, rgba8: vec![[255, 255, 255, 254]; 16] }];
+    assert_eq!(class(&blend(1.0, true), &nearly, tri(0.1, 0.9)), AlphaClass::Mixed);
+}
+
+/// COLOR_0 scales a BLEND triangle's alpha: corners' alphas all at least 1 keep it opaque,
+/// all at most 1 keep it clear; any other mixes; a mixed or untested one stays as it is.
+#[test]
+fn colors_keep_a_class_only_where_they_cannot_change_it() {
+    let c = |a: [f32; 3]| Some(a.map(|w| Vec4::new(0.2, 0.3, 0.4, w)));
+    use AlphaClass::*;
+    let cases = [
+        (Opaque, None, Opaque),
+        (Opaque, c([1.0; 3]), Opaque),
+        (Opaque, c([1.0, 2.0, 1.5]), Opaque),
+        (Opaque, c([1.0, 0.999, 1.0]), Mixed),
+        (Clear, c([1.0, 0.2, 0.0]), Clear),
+        (Clear, c([1.0, 1.001, 0.0]), Mixed),
+        (Mixed, c([1.0; 3]), Mixed),
+        (NoTest, c([0.0; 3]), NoTest),
+    ];
+    for (class, colors, want) in cases {
+        assert_eq!(with_colors(class, colors), want, "{class:?} with {colors:?}");
+    }
 }

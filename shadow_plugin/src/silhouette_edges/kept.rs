@@ -146,10 +146,8 @@ impl KeptEdges {
                 // A relative 1e-9 over the f64 rounding of each vertex's own test.
                 normal.dot(x - centre) >= (near + 1e-5 * reach) + 1e-9 * (x.abs().max_element() + reach)
             });
-            let alpha = p
-                .materials
-                .iter()
-                .any(|&m| matches!(scene.materials[m as usize].alpha, AlphaMode::Mask { .. }));
+            let alpha =
+                p.materials.iter().any(|&m| !matches!(scene.materials[m as usize].alpha, AlphaMode::Opaque));
             let carry = Carry::new(p);
             let counted = clear_of_light && !alpha && !p.brute && carry.shrink.is_finite();
             kept.counted += counted as u64;

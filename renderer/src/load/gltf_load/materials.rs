@@ -126,7 +126,7 @@ fn load_material(
     let alpha = match m.alpha_mode() {
         gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
         gltf::material::AlphaMode::Mask => AlphaMode::Mask { cutoff: m.alpha_cutoff().unwrap_or(0.5) },
-        gltf::material::AlphaMode::Blend => AlphaMode::Mask { cutoff: 0.5 },
+        gltf::material::AlphaMode::Blend => AlphaMode::Blend,
     };
     let material = Material {
         base_color,

@@ -16,7 +16,7 @@
 //!   one point of the frustum and nearer than `near` at another crosses the nearest sheet:
 //!   blocked. (The nearest sheet's triangles there form one connected surface, so their depth
 //!   ranges form one run; other sheets, such as the floor under a card, may lie deeper.)
-//!   Alpha-tested triangles never cover. A pixel wholly inside one opaque triangle is covered
+//!   Alpha-tested triangles (MASK or BLEND) never cover. A pixel wholly inside one opaque triangle is covered
 //!   by it alone, whatever other edges cross it (its own deepest point there is its `far`).
 //!
 //! Both bounds are then taken over 2 x 2 blocks of pixels ([`DepthBounds::near2`],
