@@ -5,15 +5,18 @@
 //! ([`crate::LightShadowing::visibility_glossy`]):
 //!
 //! ```text
-//! L ( k_d E V + S V_glossy ),    S = (f0 norm + (f90 - f0) fresnel) LTC(light)
+//! L ( k_d E V + S V_glossy ),    S = f0 I + (f90 - f0) I_F
 //! ```
 //!
 //! - The diffuse part: `k_d = (1 - metallic) base / pi (1 - F)`, E the exact irradiance and V
 //!   the share of it that arrives. Appendix B's `1 - F` depends on the half vector; it is
 //!   taken at the light's centre (it stays within 0.96-0.90 but at grazing angles).
-//! - The specular part: S, the unshadowed integral of D Vis F cos over the light, by the LTC
-//!   fit ([`crate::shading::ltc`], Fresnel split as the LTC tables split it), times the lobe's
-//!   share ([`crate::interface::lobe`]).
+//! - The specular part: S, the unshadowed integral of D Vis F cos over the light, Schlick's
+//!   Fresnel split into the lobe's two moments over the light (`I` of D Vis cos, `I_F` of
+//!   (1 - wo.h)^5 D Vis cos), each by quadrature of the true lobe with nodes placed by its LTC
+//!   fit ([`crate::shading::lobe_integral`]: within 0.2% of brute force where the fit alone
+//!   is off by up to 7.7%), times the lobe's share ([`crate::interface::lobe`]). The fit
+//!   still gives the share's shape for `analytic` (a ratio: the fit's error largely cancels).
 //!
 //! A lobe sharper than [`LTC_ROUGHNESS_MIN`] is not fitted well (the fit's tests start
 //! there); its light comes from BSDF samples that hit the light instead (the path's
@@ -27,6 +30,7 @@ use crate::geometry::surface::Surface;
 use crate::integrator::path::{PathContext, PathId, VertexQueries, shadow_query};
 use crate::interface::lobe::GlossyLobe;
 use crate::shading::brdf::{DIELECTRIC_F0, GltfBrdf, schlick_weight};
+use crate::shading::lobe_integral::polygon_lobe_moments;
 use glam::{DVec3, Vec3};
 
 /// The roughness under which a specular lobe's direct light comes from BSDF samples, not
@@ -75,13 +79,14 @@ impl Reflector {
         (1.0 - brdf.metallic) * (1.0 - f) * std::f32::consts::FRAC_1_PI * brdf.base_color
     }
 
-    /// S for `light` (see the module doc): the LTC integral over the light's corners in the
-    /// lobe's frame, with the Fresnel split's colour.
+    /// S for `light` (see the module doc): the lobe's two moments over the light's corners
+    /// in the lobe's frame, mixed by the Fresnel split's colours.
     fn specular_integral(&self, lobe: &GlossyLobe, p: Vec3, light: &RectLight) -> Vec3 {
         let corners: [DVec3; 4] = light.corners().map(|c| lobe.to_local(c - p).as_dvec3());
-        let s = lobe.ltc.polygon_integral(&corners) as f32;
+        let (moment, fresnel) =
+            polygon_lobe_moments(&lobe.ltc, lobe.alpha as f64, lobe.wo.z as f64, &corners);
         let (f0, f90) = self.brdf.specular_tint();
-        lobe.ltc.specular_albedo(f0.as_dvec3(), f90.as_dvec3()).as_vec3() * s
+        f0 * moment as f32 + (f90 - f0) * fresnel as f32
     }
 }
 

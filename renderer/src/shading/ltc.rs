@@ -62,8 +62,9 @@
 //!   starts agree. The error grows towards grazing views, where the surface cuts the lobe, and
 //!   at middle roughness, where GGX's long tail is least like a stretched cosine. The last
 //!   column (89.94°) is barely representable (TV 0.3–0.5); views beyond 88° interpolate
-//!   towards it. Callers wanting less bias can keep the LTC for the *ratio* visible/unshadowed
-//!   only (Heitz, Hill, McGuire 2018), with an accurate unshadowed value.
+//!   towards it. The shading keeps the fit for the *ratio* visible/unshadowed only (Heitz,
+//!   Hill, McGuire 2018) and takes the unshadowed value from [`super::lobe_integral`], a
+//!   quadrature of the true lobe with nodes placed by this fit (within 0.21% of brute force).
 
 use super::brdf::ROUGHNESS_MIN;
 use super::ltc_table::ltc_table;
@@ -239,18 +240,18 @@ pub fn lambert_edge(a: DVec3, b: DVec3) -> f64 {
 /// Streaming Sutherland–Hodgman against one half-space `plane·p >= 0` through the origin: fed
 /// the vertices in order, it passes on those of the clipped polygon, in order. A plane through
 /// the origin clips the spherical polygon along a great circle, so segments in 3D suffice.
-struct HalfSpaceClip {
+pub(super) struct HalfSpaceClip {
     plane: DVec3,
     first: Option<(DVec3, f64)>,
     prev: (DVec3, f64),
 }
 
 impl HalfSpaceClip {
-    fn new(plane: DVec3) -> Self {
+    pub(super) fn new(plane: DVec3) -> Self {
         HalfSpaceClip { plane, first: None, prev: (DVec3::ZERO, 0.0) }
     }
 
-    fn push(&mut self, p: DVec3, out: &mut impl FnMut(DVec3)) {
+    pub(super) fn push(&mut self, p: DVec3, out: &mut impl FnMut(DVec3)) {
         let cur = (p, self.plane.dot(p));
         if self.first.is_none() {
             self.first = Some(cur);
@@ -260,7 +261,7 @@ impl HalfSpaceClip {
         self.prev = cur;
     }
 
-    fn finish(&mut self, out: &mut impl FnMut(DVec3)) {
+    pub(super) fn finish(&mut self, out: &mut impl FnMut(DVec3)) {
         if let Some(first) = self.first {
             Self::edge(self.prev, first, out);
         }

@@ -7,6 +7,7 @@
 //! Everything works in the local shading frame, +z the shading normal.
 
 pub mod brdf;
+pub mod lobe_integral;
 pub mod ltc;
 mod ltc_table;
 pub mod quadrature;
