@@ -3,9 +3,8 @@
 //! surface AOVs, and `diffuse` giving the renders without normal maps, byte for byte, on
 //! every shared scene.
 
-mod common;
-#[path = "common/folders.rs"]
-mod folders;
+use crate::common;
+use crate::common::folders;
 
 use common::gltf_writer::TempDir;
 use common::material_quad::{Quad, code, decoded, scene_toml, texel_png, write_quad};

@@ -2,7 +2,7 @@
 //! as the direct-light formula bit for bit, convergence with spp, and the same bytes for any
 //! thread count.
 
-mod common;
+use crate::common;
 
 use common::sphere::sphere;
 use glam::{DVec3, Vec3};

@@ -4,7 +4,7 @@
 //! (fuzz/src/lib.rs, included below), with the outcome it must now have. The committed
 //! seeds are checked too: a seed that stops loading no longer leads the fuzzer anywhere.
 
-#[path = "../fuzz/src/lib.rs"]
+#[path = "../../fuzz/src/lib.rs"]
 #[allow(dead_code)] // `verbose` serves the fuzz targets only
 mod fuzz_harness;
 

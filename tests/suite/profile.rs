@@ -2,8 +2,7 @@
 //! contract names them), the cost EXR's layers and the heat map, and that the cost lands where
 //! the work is: penumbra pixels cost more than lit ones.
 
-#[path = "common/folders.rs"]
-mod folders;
+use crate::common::folders;
 use folders::temp_dir;
 use renderer::util::pixel_cost::PixelCost;
 use serde_json::Value;

@@ -2,7 +2,7 @@
 //! triangles, instances), and a scene too big for the memory refused before its buffers are
 //! read. Files generated at run time; expected values from the numbers written into them.
 
-mod common;
+use crate::common;
 
 use common::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive};
 use renderer::{KeepInstances, LoadOptions, Scene, SceneError, SceneFile};

@@ -13,9 +13,8 @@
 //! Every expected number is computed here in f64 from what the files hold (bytes, factors,
 //! corners), never by the renderer's code.
 
-mod common;
-#[path = "common/folders.rs"]
-mod folders;
+use crate::common;
+use crate::common::folders;
 
 use common::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive, write_png_rgba};
 use common::material_quad::{Quad, scene_toml, write_quad};

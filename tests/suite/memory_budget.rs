@@ -3,11 +3,7 @@
 //! setting and the memory it would need (exit 2, nothing written). The budget is set through
 //! `PENUMBRA_MASK_BUDGET_MIB` so that the answers do not depend on the machine.
 
-#[path = "common/folders.rs"]
-mod folders;
-#[macro_use]
-#[path = "common/tiny_scene.rs"]
-mod tiny_scene;
+use crate::common::folders;
 use folders::temp_dir;
 use std::path::Path;
 use std::process::{Command, Output};

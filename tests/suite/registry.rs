@@ -20,8 +20,7 @@ use serde::{Deserialize, Serialize};
 use shadow_plugin::DepthMarchParams;
 use std::path::{Path, PathBuf};
 
-#[path = "common/tiny_scene.rs"]
-mod tiny_scene;
+use crate::common::tiny_scene;
 use tiny_scene::TINY_SCENE;
 
 /// `[shadows.toy]`: every point sees `level` of the light.

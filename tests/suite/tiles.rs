@@ -3,11 +3,9 @@
 //! with and without paths; a bad set of tiles is refused on one line, exit 2, nothing
 //! written.
 
-#[path = "common/folders.rs"]
-mod folders;
+use crate::common::folders;
 use folders::temp_dir;
-#[path = "common/tiny_scene.rs"]
-mod tiny_scene;
+use crate::common::tiny_scene;
 
 use penumbra::merge::{MergeArgs, run_merge};
 use penumbra::request::Overrides;

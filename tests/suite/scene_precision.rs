@@ -2,7 +2,7 @@
 //! so geometry far from what the camera sees cannot cost the visible part its precision, and
 //! triangles are degenerate only relative to their own size.
 
-mod common;
+use crate::common;
 
 use renderer::methods::traced::{Traced, TracedParams};
 use renderer::{Frame, LightShadowing, RenderSettings, Scene, SceneFile, render};

@@ -10,7 +10,7 @@
 //! so V from N rays is a binomial share: standard deviation sqrt(a (1 - a) / N), which
 //! stratifying the light does not lower. The tolerances below are stated in those terms.
 
-mod common;
+use crate::common;
 
 use common::gltf_writer::{TempDir, write_png_rgba};
 use common::material_quad::{Quad, write_quad};

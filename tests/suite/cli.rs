@@ -1,11 +1,7 @@
 //! The command line as a user meets it: outputs, determinism across thread counts, and bad
 //! input (one line naming file and key, exit status 2, nothing written).
 
-#[path = "common/folders.rs"]
-mod folders;
-#[macro_use]
-#[path = "common/tiny_scene.rs"]
-mod tiny_scene;
+use crate::common::folders;
 use folders::{penumbra, temp_dir};
 use renderer::{ShadowMethod, TracedParams};
 use shadow_plugin::EdgeTableParams;

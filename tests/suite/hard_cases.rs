@@ -43,15 +43,13 @@
 //! the shadowed receivers) give the values in the bounds' comments below. With the previous
 //! grid, 4 x 4 x 4, every case was within 0.002 RMSE of them and the tiny light identical.
 
-#[path = "common/folders.rs"]
-mod folders;
+use crate::common::folders;
 use folders::temp_dir;
 use shadow_plugin::{EdgeTableParams, PublishedParams, Reading};
 use std::path::Path;
 use std::sync::Arc;
 
-#[path = "common/quads.rs"]
-mod quads;
+use crate::common::quads;
 use quads::*;
 
 /// Light samples per shading point, for both methods (edge_table: rays per mask).

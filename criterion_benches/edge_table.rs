@@ -27,8 +27,8 @@
 //!   they are answered (fallback: by traced rays, all on the back wall; else by visibility
 //!   1, (0, 1), 0). Throughput = points.
 //!
-//! Run: `cargo bench --bench edge_table` (about 1.5 minutes after the build). One group:
-//! `cargo bench --bench edge_table -- mask_query` (the argument is a regex on the ids, e.g.
+//! Run: `cargo bench -p criterion_benches --bench edge_table` (about 1.5 minutes after the build). One group:
+//! `cargo bench -p criterion_benches --bench edge_table -- mask_query` (the argument is a regex on the ids, e.g.
 //! `-- mask_query/large/plate`). The setup prints each case's crossings, bytes, visible
 //! rays and lookups on stderr.
 //!
@@ -336,7 +336,7 @@ fn bench_query(c: &mut Criterion) {
 /// The default scene (quads only, embedded in the repository) and the visibility queries of
 /// a 160 x 120 frame at pixel centres, as the renderer makes them.
 fn default_scene() -> (Scene, Vec<ShadingPoint>, Vec<ShadowQuery>) {
-    let path = Path::new("scenes/default.toml");
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/default.toml"));
     let file = SceneFile::load(path).unwrap_or_else(|e| panic!("{e}"));
     let scene = Scene::load(&file, path).unwrap_or_else(|e| panic!("{e}"));
     let (w, h) = (160u32, 120u32);

@@ -4,10 +4,9 @@
 //! --quiet) and the same lines under `warnings` in the run report; glTF load errors name the
 //! file that failed; SIGINT/SIGTERM leave no temporary file.
 
-#[path = "common/folders.rs"]
-mod folders;
+use crate::common::folders;
 use folders::penumbra;
-mod common;
+use crate::common;
 
 use common::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive};
 use serde_json::json;

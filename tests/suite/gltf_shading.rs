@@ -6,7 +6,7 @@
 //! some (a white metal of roughness 1 keeps about 0.7 head-on), and Appendix B's diffuse
 //! weight 1 - F(V.H) lets a white dielectric return a little more than 1 at grazing views.
 
-mod common;
+use crate::common;
 
 use common::sphere::sphere;
 use glam::{DVec3, Vec3};

@@ -5,7 +5,7 @@
 //! Also the measurement behind the BVH choice (ARCHITECTURE.md): Bvh2 against CwBvh on the
 //! same rays, and the build presets.
 //!
-//! Run: `cargo bench --bench traced_shadows` (about 3 minutes).
+//! Run: `cargo bench -p criterion_benches --bench traced_shadows` (about 3 minutes).
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Vec3, Vec3A};
@@ -17,7 +17,10 @@ use std::hint::black_box;
 use std::path::Path;
 use std::time::Duration;
 
-const SCENES: [&str; 2] = ["scenes/gltf/sauerbraten-zdm2.toml", "scenes/gltf/flight-helmet.toml"];
+const SCENES: [&str; 2] = [
+    concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/gltf/sauerbraten-zdm2.toml"),
+    concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/gltf/flight-helmet.toml"),
+];
 
 /// Shadow rays in pixel order, as the renderer traces them: a 160 x 120 frame, 16 jittered
 /// light samples per primary hit that the light reaches (above the horizon only).

@@ -2,8 +2,7 @@
 //! every image and plot exists and opens, the truth is cached and recomputed when the scene
 //! changes, and bad input is a one-line error with nothing written.
 
-#[path = "common/folders.rs"]
-mod folders;
+use crate::common::folders;
 use folders::temp_dir;
 use penumbra::methods::METHODS;
 use std::path::{Path, PathBuf};
@@ -13,12 +12,10 @@ fn bench(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_penumbra")).arg("bench").args(args).output().unwrap()
 }
 
-#[path = "common/tiny_scene.rs"]
-mod tiny_scene;
+use crate::common::tiny_scene;
 use tiny_scene::TINY_SCENE;
 
-#[path = "common/shared.rs"]
-mod shared;
+use crate::common::shared;
 
 fn read(p: &Path) -> String {
     std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))

@@ -7,7 +7,7 @@
 //! Expected values come from the bytes and numbers written into the files, computed here in
 //! f64; the loader's code is never called for them.
 
-mod common;
+use crate::common;
 
 use common::gltf_writer::{TempDir, write_png_rgba};
 use common::material_quad::{CORNERS, Quad, code, decoded, scene_toml, texel_png, write_quad};

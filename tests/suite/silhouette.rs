@@ -3,7 +3,7 @@
 //! disagreements, and are counted), and its visibility must equal `traced`'s with the same
 //! samples. Run through the ordinary render path (a wrapping method checks each query).
 
-mod common;
+use crate::common;
 
 use common::checked::{self, CheckedMethod, Verdicts};
 use common::gltf_writer::TempDir;

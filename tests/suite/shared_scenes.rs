@@ -6,8 +6,7 @@ use penumbra::methods::METHODS;
 use penumbra::{RenderArgs, run_render};
 use std::path::PathBuf;
 
-#[path = "common/shared.rs"]
-mod shared;
+use crate::common::shared;
 
 /// This file's tests all read ../shared: their entry in `shared::READERS`.
 const READER: &str = "shared_scenes (all 12)";

@@ -13,13 +13,11 @@
 //! Each bound's comment gives the value measured on these scenes; bounds are about 1.5-2x
 //! it. `cargo test --release --test pcss -- --nocapture` prints the metrics.
 
-#[path = "common/folders.rs"]
-mod folders;
+use crate::common::folders;
 use folders::temp_dir;
 use std::path::Path;
 
-#[path = "common/quads.rs"]
-mod quads;
+use crate::common::quads;
 use quads::*;
 
 /// Light samples per shading point, for every method.

@@ -6,7 +6,7 @@
 //! Expected values are computed independently in f64 from the numbers written into the
 //! files; the loader's own code is never called for them.
 
-mod common;
+use crate::common;
 
 use common::gltf_writer::{
     GltfBuilder, TRIANGLE_FAN, TRIANGLE_STRIP, TRIANGLES, TempDir, primitive, write_json, write_png_rgba,

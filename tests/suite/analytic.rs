@@ -392,9 +392,8 @@ fn analytic_leaves_match_lambert_within_their_noise() {
     assert!(mean.abs() <= 3.0 * se, "mean difference {mean}, standard error {se}");
 }
 
-mod common;
-#[path = "common/folders.rs"]
-mod folders;
+use crate::common;
+use crate::common::folders;
 
 use common::gltf_writer::TempDir;
 use common::soups;

@@ -4,7 +4,7 @@
 //! method checks each query), on the default scene, the bench scenes, every shared scene,
 //! random triangle soups and terraced heightfields.
 
-mod common;
+use crate::common;
 
 use common::checked::{self, CheckedMethod, Verdicts};
 use common::gltf_writer::TempDir;
