@@ -82,7 +82,9 @@ impl Reflector {
     /// S for `light` (see the module doc): the lobe's two moments over the light's corners
     /// in the lobe's frame, mixed by the Fresnel split's colours.
     fn specular_integral(&self, lobe: &GlossyLobe, p: Vec3, light: &RectLight) -> Vec3 {
-        let corners: [DVec3; 4] = light.corners().map(|c| lobe.to_local(c - p).as_dvec3());
+        // Relative to p in f64: corners rounded to f32 about the camera can change a tiny
+        // light's size.
+        let corners: [DVec3; 4] = light.corners_from(p).map(|c| lobe.to_local_f64(c));
         let (moment, fresnel) =
             polygon_lobe_moments(&lobe.ltc, lobe.alpha as f64, lobe.wo.z as f64, &corners);
         let (f0, f90) = self.brdf.specular_tint();

@@ -20,7 +20,7 @@
 
 use crate::shading::brdf::{ggx_d, smith_visibility};
 use crate::shading::ltc::{LtcLobe, ltc_lobe};
-use glam::{DMat3, Vec3};
+use glam::{DMat3, DVec3, Vec3};
 
 /// The glossy lobe of one shading point. `Copy`, a few words: built once per point and
 /// passed by reference to every light's query.
@@ -52,6 +52,13 @@ impl GlossyLobe {
     #[inline(always)]
     pub fn to_local(&self, w: Vec3) -> Vec3 {
         Vec3::new(self.frame[0].dot(w), self.frame[1].dot(w), self.frame[2].dot(w))
+    }
+
+    /// [`GlossyLobe::to_local`] in f64: for vectors to a light's corners, whose differences
+    /// (the light's size) f32 could round away beside their length.
+    pub fn to_local_f64(&self, w: DVec3) -> DVec3 {
+        let f = self.frame.map(|a| a.as_dvec3());
+        DVec3::new(f[0].dot(w), f[1].dot(w), f[2].dot(w))
     }
 
     /// The factor the lobe puts on g at the light point `w` away from the shading point

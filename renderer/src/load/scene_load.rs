@@ -7,7 +7,7 @@ use crate::geometry::camera::Camera;
 use crate::geometry::instances::{Instance, MeshTopology, TriangleOrigin};
 use crate::geometry::light::RectLight;
 use crate::geometry::material::{Material, Shading};
-use crate::geometry::precision::{f32_spacing, is_degenerate};
+use crate::geometry::precision::f32_spacing;
 use crate::geometry::scene::{LoadStats, Scene, TriangleShading, camera_frame_ok, cover_depth};
 use crate::load::gltf_load::{Geometry, GltfCamera, SourceTriangle, load_gltf};
 use crate::load::precision_tally::PrecisionTally;
@@ -383,61 +383,55 @@ fn world_bounds(triangles: &[SourceTriangle]) -> (DVec3, DVec3) {
     (lo, hi)
 }
 
-/// Why a light cannot be placed in render space: the message, and whether the camera's
-/// distance is to blame (the light itself is a real rectangle in f32 about its own centre).
+/// Why a light cannot be placed in render space: the message, whether the camera's distance
+/// is to blame (the light would be fine near the camera), and the edge that is too short
+/// (`"u"` or `"v"`).
 pub struct LightPlacement {
     pub message: String,
     pub camera_too_far: bool,
+    pub edge: &'static str,
 }
 
 /// The light `l` in render space (world minus `world_offset`), or why f32 cannot hold it
-/// there: its corners must stay a real rectangle in f32 at its distance from the camera, or
-/// its irradiance could not be computed (a 1e-30 m light 2 m away is one point in f32; a
-/// 0.9 m light 10^7 m from the camera, where f32 spacing is 1 m, likewise: the camera's
-/// distance is then the culprit, and the message says so: the light is a real rectangle in
-/// f32 about its own centre and the camera is over 10x the scene's extent `scene_extent`
-/// (world, m) away from it).
+/// there. Its centre and edges are kept, and what it sends is measured from each point in
+/// f64 ([`RectLight::corners_from`]), so its size and power survive at any distance; but its
+/// centre, like every position there, is an f32 position spaced s = [`f32_spacing`] of its
+/// distance d from the camera, and so are the shading points around it: an edge shorter than
+/// s is finer than a position there resolves (the light would move by more than its size), so
+/// each edge must be at least s (2.4e-7 m at 2.6 m; a 1e-30 m light is refused anywhere but
+/// at the camera). Where the light would be fine near the camera and the camera is over 10x
+/// the scene's extent `scene_extent` (world, m) away from it (a 0.5 m light 10^7 m from the
+/// camera, where s is 1 m), the camera's distance is the culprit, and the message says so.
 pub fn light_in_render_space(
     l: &LightDesc,
     world_offset: DVec3,
     scene_extent: f64,
 ) -> Result<RectLight, LightPlacement> {
     let centre = DVec3::from(l.center) - world_offset;
-    let light = RectLight::new(
-        centre.as_vec3(),
-        DVec3::from(l.u).as_vec3(),
-        DVec3::from(l.v).as_vec3(),
-        Vec3::from(l.radiance),
-    );
-    let c = light.corners().map(|c| c.as_dvec3());
-    if is_degenerate([c[0], c[1], c[2]]) || is_degenerate([c[0], c[2], c[3]]) || !light.normal.is_finite() {
-        let d = centre.length();
-        let (u, v) = (DVec3::from(l.u), DVec3::from(l.v));
-        let at_origin = RectLight::new(Vec3::ZERO, u.as_vec3(), v.as_vec3(), Vec3::ONE);
-        let o = at_origin.corners().map(|c| c.as_dvec3());
-        let fine_nearby = !is_degenerate([o[0], o[1], o[2]]) && at_origin.normal.is_finite();
-        let camera_too_far = fine_nearby && d > 10.0 * (scene_extent + u.length() + v.length());
-        let message = if camera_too_far {
-            format!(
-                "the camera is {d:.3e} m from the light ({:.3e} x {:.3e} m), where f32 positions are spaced \
-                 {:.3e} m: render space is centred on the camera, so the light's area and irradiance \
-                 cannot be computed there; move the camera nearer the scene",
-                u.length(),
-                v.length(),
-                f32_spacing(d),
-            )
-        } else {
-            format!(
-                "the light ({:.3e} x {:.3e} m) is too small for f32 at its distance from the camera \
-                 ({d:.3e} m, where f32 positions are spaced {:.3e} m): its area and irradiance cannot be computed",
-                u.length(),
-                v.length(),
-                f32_spacing(d),
-            )
-        };
-        return Err(LightPlacement { message, camera_too_far });
+    let (u, v) = (DVec3::from(l.u), DVec3::from(l.v));
+    let light = RectLight::new(centre.as_vec3(), u.as_vec3(), v.as_vec3(), Vec3::from(l.radiance));
+    let (d, lu, lv) = (centre.length(), u.length(), v.length());
+    let spacing = f32_spacing(d);
+    if lu.min(lv) >= spacing && light.normal.is_finite() {
+        return Ok(light);
     }
-    Ok(light)
+    let edge = if lu <= lv { "u" } else { "v" };
+    let fine_nearby = light.normal.is_finite();
+    let camera_too_far = fine_nearby && d > 10.0 * (scene_extent + lu + lv);
+    let message = if camera_too_far {
+        format!(
+            "the camera is {d:.3e} m from the light ({lu:.3e} x {lv:.3e} m), where f32 positions are spaced \
+             {spacing:.3e} m: render space is centred on the camera, so the light's edges must be at least \
+             that long there; move the camera nearer the scene",
+        )
+    } else {
+        format!(
+            "the light ({lu:.3e} x {lv:.3e} m) is too small for f32 at its distance from the camera \
+             ({d:.3e} m, where f32 positions are spaced {spacing:.3e} m): a position there cannot resolve \
+             it, so each edge must be at least {spacing:.3e} m",
+        )
+    };
+    Err(LightPlacement { message, camera_too_far, edge })
 }
 
 /// The lights in render space (world minus `world_offset`): the scene file's, or else the
@@ -459,7 +453,7 @@ fn scene_lights(
             .map(|(k, l)| {
                 light_in_render_space(l, world_offset, scene_extent).map_err(|e| {
                     let key = match (e.camera_too_far, file.camera.from_gltf) {
-                        (false, _) => format!("light[{k}].u"),
+                        (false, _) => format!("light[{k}].{}", e.edge),
                         (true, false) => "camera.position".to_string(),
                         (true, true) => "camera.from_gltf".to_string(),
                     };

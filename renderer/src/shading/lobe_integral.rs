@@ -166,7 +166,10 @@ impl Lobe {
 
     /// Radon's rule on the flat triangle `(a, b, c)` (local frame, any lengths), projected.
     fn leaf(&self, [a, b, c]: [DVec3; 3], sums: &mut (f64, f64)) {
-        let det = a.dot(b.cross(c));
+        // det(a, b, c) as det(a - c, b - c, c): the same value, but for a triangle far
+        // smaller than its distance (a tiny light) the differences carry its size, where
+        // a . (b x c) would cancel terms ~1e16 times larger than it.
+        let det = c.dot((a - c).cross(b - c));
         for ([l, m, n], weight) in RULE {
             let y = a * l + b * m + c * n;
             let len2 = y.length_squared();
