@@ -18,7 +18,7 @@ This page is generated from the method registry (`src/methods.rs`): each method'
 is its own text, in its folder (`keys.md` beside a plugin's code), and `tests/scene_keys.rs`
 holds each section against the method's parameter struct: a key missing there, a key there
 the struct does not take, or a default that differs fails the tests. The tests also fail
-when this file is stale; `PENUMBRA_BLESS=1 cargo test --test scene_keys` rewrites it. Unknown
+when this file is stale; `PENUMBRA_BLESS=1 cargo test --test suite scene_keys::` rewrites it. Unknown
 keys are errors naming the key's full path (`shadows.edge_table.gird`), and so is a key that
 has no effect with the other choices made (`slab_thickness` with `heightfield = "shells"`).
 Every method table the file gives is checked, whichever method renders.

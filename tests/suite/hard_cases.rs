@@ -15,7 +15,7 @@
 //! measured value; bounds are about 1.5-2x it, so a regression shows while sample noise and
 //! small changes of the method's parameters do not.
 //!
-//! `cargo test --test hard_cases -- --nocapture` prints every case's metrics.
+//! `cargo test --test suite hard_cases:: -- --nocapture` prints every case's metrics.
 //!
 //! The measured values quoted in the bounds' comments were taken with infinitely thin
 //! plates (`slab_thickness = 0`). With the current default (slabs 2 pixels thick) the same

@@ -34,3 +34,4 @@ mod shading_normals;
 mod shared_scenes;
 mod silhouette;
 mod tiles;
+mod tiny_lights;

@@ -11,7 +11,7 @@
 //!   and its walls down to the contact), where PCSS's single average blocker depth is wrong.
 //!
 //! Each bound's comment gives the value measured on these scenes; bounds are about 1.5-2x
-//! it. `cargo test --release --test pcss -- --nocapture` prints the metrics.
+//! it. `cargo test --release --test suite pcss:: -- --nocapture` prints the metrics.
 
 use crate::common::folders;
 use folders::temp_dir;

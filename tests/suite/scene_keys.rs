@@ -98,7 +98,7 @@ fn the_key_reference_is_the_registrys() {
     }
     assert!(
         file == page,
-        "docs/scene-keys.md is stale: `PENUMBRA_BLESS=1 cargo test --test scene_keys` rewrites it from the registry"
+        "docs/scene-keys.md is stale: `PENUMBRA_BLESS=1 cargo test --test suite scene_keys::` rewrites it from the registry"
     );
 }
 

@@ -204,7 +204,7 @@ fn alpha_masked_soups_agree_with_the_bvh() {
 }
 
 /// The bench's glass-vase-flowers at its own size (23 M settled samples, ~15 s in release; run
-/// by hand: `cargo test --release --test silhouette -- --ignored --nocapture`). It found the one
+/// by hand: `cargo test --release --test suite silhouette:: -- --ignored --nocapture`). It found the one
 /// sample in 23 M where Möller-Trumbore let a ray through a seam (the test is now watertight).
 #[test]
 #[ignore]
