@@ -9,7 +9,9 @@ mod folders;
 use folders::penumbra;
 mod common;
 
-use common::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive};
+use common::gltf_writer::{
+    GltfBuilder, TRIANGLES, TempDir, primitive, write_png_header_only, write_png_rgba,
+};
 use serde_json::json;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -415,4 +417,43 @@ fn a_path_depth_outside_two_to_sixty_four_is_an_error() {
     );
     let scene = format!("{CAMERA_AND_LIGHT}{FLOOR}[integrator]\nmax_dept = 3\n");
     assert_error(&render(&dir, &scene, &[]), &dir, &["s.toml: integrator.max_dept"]);
+}
+
+/// A 10 m floor model whose material reads the base colour texture `uri` (beside the .gltf)
+/// and whose node is `node` with the mesh added (a transform, say).
+fn textured_floor(uri: &str, node: serde_json::Value) -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let pos = b.positions(&[[-5.0, 0.0, -5.0], [5.0, 0.0, -5.0], [5.0, 0.0, 5.0], [-5.0, 0.0, 5.0]]);
+    let uv = b.texcoords(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let idx = b.indices_u16(&[0, 2, 1, 0, 3, 2]);
+    let tex = b.texture_png(uri);
+    let mat = b.material(json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": tex}}}));
+    let mesh =
+        b.mesh(vec![primitive(&[("POSITION", pos), ("TEXCOORD_0", uv)], Some(idx), TRIANGLES, Some(mat))]);
+    let mut node = node;
+    node["mesh"] = json!(mesh);
+    let node = b.node(node);
+    let scene = b.scene(&[node]);
+    b.set_default_scene(scene);
+    b
+}
+
+/// A number f32 cannot hold (1e39) in a node's matrix is named by its key path, not by the
+/// JSON's line and column alone.
+#[test]
+fn a_number_out_of_f32_range_is_named_by_its_key_path() {
+    let dir = TempDir::new("bounds-f32-range");
+    write_png_rgba(&dir.join("grey.png"), 1, 1, |_, _| [200, 200, 200, 255]);
+    let b = textured_floor("grey.png", json!({}));
+    b.write(&dir.path, "floor");
+    let mut doc = b.json("floor.bin");
+    let mut matrix = vec![json!(0.0); 16];
+    for i in [0, 5, 10, 15] {
+        matrix[i] = json!(1.0);
+    }
+    matrix[5] = json!(1e39);
+    doc["nodes"][0]["matrix"] = json!(matrix);
+    common::gltf_writer::write_json(&dir.join("floor.gltf"), &doc);
+    let o = render(&dir, &model_scene("floor.gltf"), &[]);
+    assert_error(&o, &dir, &["floor.gltf: nodes[0].matrix[5]: ", "1e39"]);
 }

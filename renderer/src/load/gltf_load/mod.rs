@@ -135,9 +135,10 @@ pub fn load_gltf(
     geometry: &mut Geometry,
 ) -> Result<Option<GltfCamera>, SceneError> {
     let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
-    let gltf = open_gltf(path).map_err(|e| match truncated_glb(path) {
+    let gltf = open_gltf(path).map_err(|(key, e)| match truncated_glb(path) {
         Some(msg) => fail("", msg),
-        None => fail("", format!("cannot load glTF: {e}")),
+        None if key.is_empty() => fail("", format!("cannot load glTF: {e}")),
+        None => fail(&key, e),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
     plan_instances(path, &gltf.document, geometry)?;
