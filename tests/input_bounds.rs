@@ -9,9 +9,7 @@ mod folders;
 use folders::penumbra;
 mod common;
 
-use common::gltf_writer::{
-    GltfBuilder, TRIANGLES, TempDir, primitive, write_png_header_only, write_png_rgba,
-};
+use common::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive, write_png_rgba};
 use serde_json::json;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -436,6 +434,36 @@ fn textured_floor(uri: &str, node: serde_json::Value) -> GltfBuilder {
     let scene = b.scene(&[node]);
     b.set_default_scene(scene);
     b
+}
+
+/// Node transforms whose product overflows f32 (a 3e38 scale; two nested 1e30 scales) drop
+/// their mesh's triangles with a warning naming the node (it said "zero area").
+#[test]
+fn a_node_transform_overflowing_f32_is_a_warning_naming_the_node() {
+    let dir = TempDir::new("bounds-overflowing-node");
+    write_png_rgba(&dir.join("grey.png"), 1, 1, |_, _| [200, 200, 200, 255]);
+    let scene = format!("{}{FLOOR}", model_scene("floor.gltf"));
+    textured_floor("grey.png", json!({"scale": [3e38, 3e38, 3e38]})).write(&dir.path, "floor");
+    let w = assert_warning(
+        &render(&dir, &scene, &[]),
+        &dir,
+        "floor.gltf: the transform of nodes[0] overflows f32",
+    );
+    assert!(w.iter().any(|w| w.contains("nodes[0]") && w.contains("2 triangle(s) dropped")), "{w:?}");
+    assert!(!w.iter().any(|w| w.contains("zero area")), "{w:?}");
+    // The mesh's node scales by 1e30 under a parent that does too: 1e60 in world space.
+    let mut b = textured_floor("grey.png", json!({"scale": [1e30, 1e30, 1e30]}));
+    let parent = b.node(json!({"scale": [1e30, 1e30, 1e30], "children": [0]}));
+    let mut doc = b.json("floor.bin");
+    doc["scenes"][0]["nodes"] = json!([parent]);
+    common::gltf_writer::write_json(&dir.join("floor.gltf"), &doc);
+    let w = assert_warning(
+        &render(&dir, &scene, &[]),
+        &dir,
+        "floor.gltf: the transform of nodes[0] overflows f32",
+    );
+    assert!(w.iter().any(|w| w.contains("nodes[0]") && w.contains("2 triangle(s) dropped")), "{w:?}");
+    assert!(!w.iter().any(|w| w.contains("zero area")), "{w:?}");
 }
 
 /// A number f32 cannot hold (1e39) in a node's matrix is named by its key path, not by the
