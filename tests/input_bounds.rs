@@ -9,7 +9,9 @@ mod folders;
 use folders::penumbra;
 mod common;
 
-use common::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive, write_png_rgba};
+use common::gltf_writer::{
+    GltfBuilder, TRIANGLES, TempDir, primitive, write_png_header_only, write_png_rgba,
+};
 use serde_json::json;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -434,6 +436,39 @@ fn textured_floor(uri: &str, node: serde_json::Value) -> GltfBuilder {
     let scene = b.scene(&[node]);
     b.set_default_scene(scene);
     b
+}
+
+/// A texture larger than the memory the load may use is refused before it is decoded, in
+/// one line naming the image, its size in pixels and bytes and the limit (it was the image
+/// crate's "Memory limit exceeded", naming none of them). 10^6 x 10^6 RGBA8 is 3.6 TiB.
+#[test]
+fn a_texture_over_the_memory_available_is_named_with_its_size_and_the_limit() {
+    let dir = TempDir::new("bounds-huge-texture");
+    write_png_header_only(&dir.join("huge.png"), 1_000_000, 1_000_000);
+    textured_floor("huge.png", json!({})).write(&dir.path, "floor");
+    let o = render(&dir, &model_scene("floor.gltf"), &[]);
+    assert_error(
+        &o,
+        &dir,
+        &[
+            "floor.gltf: images[0].uri: ",
+            "huge.png (textures[0], materials[0].pbrMetallicRoughness.baseColorTexture)",
+            "is 1000000 x 1000000 pixels",
+            "GiB of memory the load may use",
+            "downscale",
+        ],
+    );
+}
+
+/// A texture over the image crate's own default limit (512 MiB decoded) loads where the
+/// memory allows it: 11,600^2 RGBA8 is 513 MiB (16,384^2, 1 GiB, was refused the same way).
+#[test]
+fn a_texture_over_the_image_crates_default_limit_loads() {
+    let dir = TempDir::new("bounds-large-texture");
+    write_png_rgba(&dir.join("large.png"), 11_600, 11_600, |_, _| [200, 200, 200, 255]);
+    textured_floor("large.png", json!({})).write(&dir.path, "floor");
+    let o = render(&dir, &model_scene("floor.gltf"), &["--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
 /// Node transforms whose product overflows f32 (a 3e38 scale; two nested 1e30 scales) drop

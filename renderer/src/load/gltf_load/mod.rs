@@ -16,6 +16,7 @@ use std::path::Path;
 mod attributes;
 mod files;
 mod gpu_instancing;
+mod images;
 mod materials;
 mod overflow;
 mod primitives;
