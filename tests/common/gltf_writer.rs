@@ -339,3 +339,37 @@ pub fn write_png_rgba(path: &Path, width: u32, height: u32, f: impl Fn(u32, u32)
     let img = image::RgbaImage::from_fn(width, height, |x, y| image::Rgba(f(x, y)));
     img.save_with_format(path, image::ImageFormat::Png).expect("write the PNG");
 }
+
+/// Writes a PNG whose header declares `width` x `height` RGBA8 pixels but whose one IDAT
+/// chunk holds a single byte: a decoder learns the size without the data, so a test can
+/// claim a texture of gigabytes in a file of 60 bytes.
+pub fn write_png_header_only(path: &Path, width: u32, height: u32) {
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&width.to_be_bytes());
+    ihdr.extend_from_slice(&height.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 6, 0, 0, 0]); // 8 bits, RGBA, deflate, adaptive filter, no interlace
+    // zlib (no compression preset) of the one byte 0: a valid stream far shorter than the rows.
+    let idat = [0x78, 0x01, 0x63, 0x00, 0x00, 0x00, 0x01, 0x00, 0x01];
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    for (kind, data) in [(b"IHDR", &ihdr[..]), (b"IDAT", &idat[..]), (b"IEND", &[][..])] {
+        png.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let start = png.len();
+        png.extend_from_slice(kind);
+        png.extend_from_slice(data);
+        let crc = crc32(&png[start..]);
+        png.extend_from_slice(&crc.to_be_bytes());
+    }
+    std::fs::write(path, png).expect("write the PNG");
+}
+
+/// CRC-32 (IEEE, reflected), as PNG chunks carry it over their type and data.
+fn crc32(bytes: &[u8]) -> u32 {
+    let mut crc = !0u32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+        }
+    }
+    !crc
+}

@@ -8,7 +8,9 @@ use crate::common::folders;
 use folders::penumbra;
 use crate::common;
 
-use common::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive};
+use common::gltf_writer::{
+    GltfBuilder, TRIANGLES, TempDir, primitive, write_png_header_only, write_png_rgba,
+};
 use serde_json::json;
 use std::path::Path;
 use std::process::{Command, Output};
@@ -414,4 +416,106 @@ fn a_path_depth_outside_two_to_sixty_four_is_an_error() {
     );
     let scene = format!("{CAMERA_AND_LIGHT}{FLOOR}[integrator]\nmax_dept = 3\n");
     assert_error(&render(&dir, &scene, &[]), &dir, &["s.toml: integrator.max_dept"]);
+}
+
+/// A 10 m floor model whose material reads the base colour texture `uri` (beside the .gltf)
+/// and whose node is `node` with the mesh added (a transform, say).
+fn textured_floor(uri: &str, node: serde_json::Value) -> GltfBuilder {
+    let mut b = GltfBuilder::new();
+    let pos = b.positions(&[[-5.0, 0.0, -5.0], [5.0, 0.0, -5.0], [5.0, 0.0, 5.0], [-5.0, 0.0, 5.0]]);
+    let uv = b.texcoords(&[[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let idx = b.indices_u16(&[0, 2, 1, 0, 3, 2]);
+    let tex = b.texture_png(uri);
+    let mat = b.material(json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": tex}}}));
+    let mesh =
+        b.mesh(vec![primitive(&[("POSITION", pos), ("TEXCOORD_0", uv)], Some(idx), TRIANGLES, Some(mat))]);
+    let mut node = node;
+    node["mesh"] = json!(mesh);
+    let node = b.node(node);
+    let scene = b.scene(&[node]);
+    b.set_default_scene(scene);
+    b
+}
+
+/// A texture larger than the memory the load may use is refused before it is decoded, in
+/// one line naming the image, its size in pixels and bytes and the limit (it was the image
+/// crate's "Memory limit exceeded", naming none of them). 10^6 x 10^6 RGBA8 is 3.6 TiB.
+#[test]
+fn a_texture_over_the_memory_available_is_named_with_its_size_and_the_limit() {
+    let dir = TempDir::new("bounds-huge-texture");
+    write_png_header_only(&dir.join("huge.png"), 1_000_000, 1_000_000);
+    textured_floor("huge.png", json!({})).write(&dir.path, "floor");
+    let o = render(&dir, &model_scene("floor.gltf"), &[]);
+    assert_error(
+        &o,
+        &dir,
+        &[
+            "floor.gltf: images[0].uri: ",
+            "huge.png (textures[0], materials[0].pbrMetallicRoughness.baseColorTexture)",
+            "is 1000000 x 1000000 pixels",
+            "GiB of memory the load may use",
+            "downscale",
+        ],
+    );
+}
+
+/// A texture over the image crate's own default limit (512 MiB decoded) loads where the
+/// memory allows it: 11,600^2 RGBA8 is 513 MiB (16,384^2, 1 GiB, was refused the same way).
+#[test]
+fn a_texture_over_the_image_crates_default_limit_loads() {
+    let dir = TempDir::new("bounds-large-texture");
+    write_png_rgba(&dir.join("large.png"), 11_600, 11_600, |_, _| [200, 200, 200, 255]);
+    textured_floor("large.png", json!({})).write(&dir.path, "floor");
+    let o = render(&dir, &model_scene("floor.gltf"), &["--quiet"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// Node transforms whose product overflows f32 (a 3e38 scale; two nested 1e30 scales) drop
+/// their mesh's triangles with a warning naming the node (it said "zero area").
+#[test]
+fn a_node_transform_overflowing_f32_is_a_warning_naming_the_node() {
+    let dir = TempDir::new("bounds-overflowing-node");
+    write_png_rgba(&dir.join("grey.png"), 1, 1, |_, _| [200, 200, 200, 255]);
+    let scene = format!("{}{FLOOR}", model_scene("floor.gltf"));
+    textured_floor("grey.png", json!({"scale": [3e38, 3e38, 3e38]})).write(&dir.path, "floor");
+    let w = assert_warning(
+        &render(&dir, &scene, &[]),
+        &dir,
+        "floor.gltf: the transform of nodes[0] overflows f32",
+    );
+    assert!(w.iter().any(|w| w.contains("nodes[0]") && w.contains("2 triangle(s) dropped")), "{w:?}");
+    assert!(!w.iter().any(|w| w.contains("zero area")), "{w:?}");
+    // The mesh's node scales by 1e30 under a parent that does too: 1e60 in world space.
+    let mut b = textured_floor("grey.png", json!({"scale": [1e30, 1e30, 1e30]}));
+    let parent = b.node(json!({"scale": [1e30, 1e30, 1e30], "children": [0]}));
+    let mut doc = b.json("floor.bin");
+    doc["scenes"][0]["nodes"] = json!([parent]);
+    common::gltf_writer::write_json(&dir.join("floor.gltf"), &doc);
+    let w = assert_warning(
+        &render(&dir, &scene, &[]),
+        &dir,
+        "floor.gltf: the transform of nodes[0] overflows f32",
+    );
+    assert!(w.iter().any(|w| w.contains("nodes[0]") && w.contains("2 triangle(s) dropped")), "{w:?}");
+    assert!(!w.iter().any(|w| w.contains("zero area")), "{w:?}");
+}
+
+/// A number f32 cannot hold (1e39) in a node's matrix is named by its key path, not by the
+/// JSON's line and column alone.
+#[test]
+fn a_number_out_of_f32_range_is_named_by_its_key_path() {
+    let dir = TempDir::new("bounds-f32-range");
+    write_png_rgba(&dir.join("grey.png"), 1, 1, |_, _| [200, 200, 200, 255]);
+    let b = textured_floor("grey.png", json!({}));
+    b.write(&dir.path, "floor");
+    let mut doc = b.json("floor.bin");
+    let mut matrix = vec![json!(0.0); 16];
+    for i in [0, 5, 10, 15] {
+        matrix[i] = json!(1.0);
+    }
+    matrix[5] = json!(1e39);
+    doc["nodes"][0]["matrix"] = json!(matrix);
+    common::gltf_writer::write_json(&dir.join("floor.gltf"), &doc);
+    let o = render(&dir, &model_scene("floor.gltf"), &[]);
+    assert_error(&o, &dir, &["floor.gltf: nodes[0].matrix[5]: ", "1e39"]);
 }

@@ -5,7 +5,7 @@
 use crate::common;
 
 use renderer::methods::traced::{Traced, TracedParams};
-use renderer::{Frame, LightShadowing, RenderSettings, Scene, SceneFile, render};
+use renderer::{Frame, KeepInstances, LightShadowing, LoadOptions, RenderSettings, Scene, SceneFile, render};
 use std::collections::HashSet;
 use std::path::Path;
 
@@ -410,4 +410,39 @@ fn edge_table_has_no_cliff_at_a_huge_floor() {
         eprintln!("floor {size:e} m: {work} rays and lookups, {base} at 10^5 m");
         assert!(work as f64 <= 1.5 * base as f64, "floor {size:e} m: {work} against {base}");
     }
+}
+
+/// A mesh placed twice, once by a node whose 3e38 scale takes it out of f32's range: those
+/// triangles are dropped with one warning naming the node (not "farther from the camera than
+/// f32 can hold" or "zero area"), whether the placements are kept as instances or flattened,
+/// and counted alike.
+#[test]
+fn a_node_placing_its_mesh_beyond_f32_is_named_kept_or_flattened() {
+    use common::gltf_writer::{GltfBuilder, TRIANGLES, TempDir, primitive};
+    let dir = TempDir::new("precision-node-overflow");
+    let mut b = GltfBuilder::new();
+    let pos = b.positions(&[[-5.0, 0.0, -5.0], [5.0, 0.0, -5.0], [5.0, 0.0, 5.0], [-5.0, 0.0, 5.0]]);
+    let idx = b.indices_u16(&[0, 2, 1, 0, 3, 2]);
+    let mesh = b.mesh(vec![primitive(&[("POSITION", pos)], Some(idx), TRIANGLES, None)]);
+    let near = b.node(serde_json::json!({"mesh": mesh}));
+    let far = b.node(serde_json::json!({"mesh": mesh, "scale": [3e38, 3e38, 3e38]}));
+    let s = b.scene(&[near, far]);
+    b.set_default_scene(s);
+    b.write(&dir.path, "pair");
+    let text = format!("[[model]]\npath = \"pair.gltf\"\n{}", penumbra::DEFAULT_SCENE);
+    let path = dir.join("scene.toml");
+    let file = SceneFile::parse(&text, &path).unwrap();
+    let load = |keep| Scene::load_with(&file, &path, LoadOptions { memory_limit: None, keep }).unwrap();
+    let (flat, kept) = (load(KeepInstances::Never), load(KeepInstances::Always));
+    assert!(kept.instanced.is_some(), "the placements are kept");
+    for scene in [&flat, &kept] {
+        let named: Vec<_> = scene.warnings.iter().filter(|w| w.contains("overflows f32")).collect();
+        assert_eq!(named.len(), 1, "{:?}", scene.warnings);
+        assert!(named[0].contains("pair.gltf: the transform of nodes[1] overflows f32"), "{named:?}");
+        assert!(named[0].contains("2 triangle(s) dropped"), "{named:?}");
+        assert!(!scene.warnings.iter().any(|w| w.contains("than f32 can hold") || w.contains("zero area")));
+    }
+    assert_eq!(flat.stats.triangles, kept.stats.triangles);
+    assert_eq!(flat.stats.degenerate_triangles, 2);
+    assert_eq!(kept.stats.degenerate_triangles, 2);
 }

@@ -34,6 +34,12 @@ pub fn is_degenerate(p: [DVec3; 3]) -> bool {
     e1.cross(e2).length() <= DEGENERATE_SINE * e1.length() * e2.length()
 }
 
+/// Whether every coordinate of `p` is one f32 can hold (NaN is not): a glTF node's
+/// transform, composed in f64, can place finite positions that no render space holds.
+pub fn fits_f32(p: &[DVec3]) -> bool {
+    p.iter().all(|v| v.abs().cmple(DVec3::splat(f32::MAX as f64)).all())
+}
+
 /// The distance between neighbouring f32 values at distance `d` from the render-space origin
 /// (the camera): how precisely a position there is stored. Infinite beyond f32's range.
 pub fn f32_spacing(d: f64) -> f64 {

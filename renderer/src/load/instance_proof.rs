@@ -25,7 +25,7 @@
 
 use super::precision_tally::{INTERSECTOR_ROUNDING, PrecisionTally};
 use crate::geometry::instances::{Placement, Placing, PrimitiveData};
-use crate::geometry::precision::{SHAPE_PRECISION, f32_spacing};
+use crate::geometry::precision::{SHAPE_PRECISION, f32_spacing, fits_f32};
 use glam::{DMat3, DVec3, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 
@@ -153,6 +153,10 @@ pub(super) fn prove(p: &Placement, m: &MeshExtremes, offset: DVec3) -> Option<Pr
         return None;
     }
     let (bounds, world, distance) = used_bounds(p, &placing, m, offset)?;
+    // Positions out of f32's range are dropped by the pass (and were warned of by node).
+    if !fits_f32(&[world.0, world.1]) {
+        return None;
+    }
     let (lo, hi) = (Vec3::from(bounds.min).as_dvec3(), Vec3::from(bounds.max).as_dvec3());
     let corner = lo.abs().max(hi.abs());
     // A render-space corner is off by at most `error`: f32's spacing at the largest

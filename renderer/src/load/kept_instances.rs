@@ -6,7 +6,7 @@ use super::instance_proof::{self, MeshExtremes};
 use super::precision_tally::PrecisionTally;
 use crate::geometry::instanced::{InstancedScene, Placed, StoredMesh, place_corners};
 use crate::geometry::instances::{Placement, Placing, PrimitiveData};
-use crate::geometry::precision::is_degenerate;
+use crate::geometry::precision::{fits_f32, is_degenerate};
 use crate::geometry::scene::{bvh_params, cover_depth};
 use glam::{DMat4, DVec3, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
@@ -190,8 +190,11 @@ fn pass(p: &Placement, offset: DVec3) -> Pass {
         for &c in &data.corners {
             let c = placing.corners(c);
             let w = c.map(|i| placing.position(data.positions[i as usize]));
-            // The loader counts zero-area triangles before the build sees the rest.
-            let keep = if is_degenerate(w) {
+            // The loader counts zero-area triangles before the build sees the rest, and drops
+            // (and warns of, by node) those out of f32's range before either.
+            let keep = if !fits_f32(&w) {
+                false
+            } else if is_degenerate(w) {
                 tally.zero_area += 1;
                 false
             } else {

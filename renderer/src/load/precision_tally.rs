@@ -14,6 +14,9 @@ pub(crate) struct PrecisionTally {
     /// The nearest collapsed triangle's distance from the camera.
     collapsed_nearest: f64,
     pub(crate) out_of_range: u64,
+    /// Dropped by the loader because a glTF node's transform takes them out of f32's range
+    /// (counted in the stats; the loader's warning names each node).
+    pub(crate) overflowed: u64,
     pub(crate) imprecise: u64,
     /// The farthest imprecise triangle's distance from the camera and its f32 spacing.
     imprecise_farthest: (f64, f64),
@@ -88,6 +91,7 @@ impl PrecisionTally {
         self.zero_area += other.zero_area;
         self.collapsed += other.collapsed;
         self.out_of_range += other.out_of_range;
+        self.overflowed += other.overflowed;
         self.imprecise += other.imprecise;
         self.oversized += other.oversized;
     }

@@ -137,6 +137,7 @@ impl Scene {
             materials,
             textures,
             degenerate,
+            overflowed,
             meshes,
             instances,
             placements,
@@ -147,6 +148,7 @@ impl Scene {
         } = geometry;
         let mut precision = PrecisionTally::default();
         precision.zero_area = degenerate;
+        precision.overflowed = overflowed;
         // Kept instances first: the loader placed them before any quad or soup.
         let (instanced, kept_triangles) = super::kept_instances::build(
             placements,
@@ -254,10 +256,13 @@ fn load_stats(load: Duration, bvh: Duration, triangles: u64, precision: &Precisi
         load,
         bvh,
         triangles,
-        degenerate_triangles: precision.zero_area + precision.collapsed + precision.out_of_range,
+        degenerate_triangles: precision.zero_area
+            + precision.collapsed
+            + precision.out_of_range
+            + precision.overflowed,
         zero_area: precision.zero_area,
         collapsed_in_f32: precision.collapsed,
-        beyond_f32_range: precision.out_of_range,
+        beyond_f32_range: precision.out_of_range + precision.overflowed,
         imprecise_triangles: precision.imprecise,
     }
 }

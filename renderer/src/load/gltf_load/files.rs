@@ -152,22 +152,30 @@ pub(super) fn decodable_uri(uri: &str) -> bool {
 /// - gltf's import panics on a buffer URI whose %-escapes are not UTF-8 ([`decodable_uri`]).
 ///
 /// A file that requires EXT_mesh_gpu_instancing is accepted (gltf would refuse it).
-pub(super) fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
+///
+/// The error is the key it concerns (empty where none applies, such as a syntax error) and
+/// what is wrong.
+pub(super) fn open_gltf(path: &Path) -> Result<gltf::Gltf, (String, String)> {
     use gltf::json::{mesh::Semantic, validation::Checked};
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let unkeyed = |message: String| (String::new(), message);
+    let bytes = std::fs::read(path).map_err(|e| unkeyed(e.to_string()))?;
     if bytes.starts_with(b"glTF") && bytes.len() >= 12 {
         let length = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
         if length < 12 || length as usize > bytes.len() {
-            return Err(format!("GLB header length {length} does not fit the file's {} bytes", bytes.len()));
+            return Err(unkeyed(format!(
+                "GLB header length {length} does not fit the file's {} bytes",
+                bytes.len()
+            )));
         }
     }
-    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| e.to_string())?;
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|e| json_error_key(&bytes).unwrap_or_else(|| unkeyed(e.to_string())))?;
     let json = gltf.document.as_json();
     for (i, buffer) in json.buffers.iter().enumerate() {
         if let Some(uri) = &buffer.uri
             && !decodable_uri(uri)
         {
-            return Err(format!("buffers[{i}].uri: its %-escapes do not decode to UTF-8"));
+            return Err(unkeyed(format!("buffers[{i}].uri: its %-escapes do not decode to UTF-8")));
         }
     }
     for (m, mesh) in json.meshes.iter().enumerate() {
@@ -175,11 +183,11 @@ pub(super) fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
             if let Some(i) = prim.attributes.get(&Checked::Valid(Semantic::Positions))
                 && i.value() >= json.accessors.len()
             {
-                return Err(format!(
+                return Err(unkeyed(format!(
                     "meshes[{m}].primitives[{p}].attributes.POSITION: no accessor {} ({} accessors)",
                     i.value(),
                     json.accessors.len()
-                ));
+                )));
             }
         }
     }
@@ -187,6 +195,67 @@ pub(super) fn open_gltf(path: &Path) -> Result<gltf::Gltf, String> {
     // reads EXT_mesh_gpu_instancing (`gpu_instancing.rs`), so a file may require it.
     let mut json = gltf.document.into_json();
     json.extensions_required.retain(|e| e != "EXT_mesh_gpu_instancing");
-    let document = gltf::Document::from_json(json).map_err(|e| e.to_string())?;
+    let document = gltf::Document::from_json(json).map_err(|e| unkeyed(e.to_string()))?;
     Ok(gltf::Gltf { document, blob: gltf.blob })
+}
+
+/// Where the JSON of a glTF file (`bytes`: .gltf or .glb) fails to deserialise, as a key
+/// path (`nodes[3].matrix[5]`) and what is wrong there; `None` where no key applies (a
+/// syntax error, a .glb without a JSON chunk). serde_json names a line and column only, and
+/// a number f32 cannot hold (1e39 in a matrix) reads as "number out of range" without
+/// saying which number: its value is named here too.
+fn json_error_key(bytes: &[u8]) -> Option<(String, String)> {
+    let glb = bytes.starts_with(b"glTF").then(|| gltf::Glb::from_slice(bytes).ok()).flatten();
+    let json: &[u8] = glb.as_ref().map_or(bytes, |g| &g.json);
+    let mut de = serde_json::Deserializer::from_slice(json);
+    let e = serde_path_to_error::deserialize::<_, gltf::json::Root>(&mut de).err()?;
+    let key = e.path().to_string();
+    if key.is_empty() || key == "." {
+        return None;
+    }
+    // The value at the path, read as f64 (wider than the f32 gltf reads).
+    let root: serde_json::Value = serde_json::from_slice(json).ok()?;
+    let value = e.path().iter().try_fold(&root, |v, segment| match segment {
+        serde_path_to_error::Segment::Seq { index } => v.get(index),
+        serde_path_to_error::Segment::Map { key } => v.get(key),
+        _ => None,
+    });
+    let message = match value.and_then(|v| v.as_f64()) {
+        Some(x) if x.abs() > f32::MAX as f64 => {
+            format!("{x:e} is out of f32's range (at most {:.1e} in magnitude)", f32::MAX)
+        }
+        _ => e.inner().to_string(),
+    };
+    Some((key, message))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const NODE_MATRIX_1E39: &str = r#"{"asset": {"version": "2.0"},
+        "nodes": [{}, {"matrix": [1, 0, 0, 0, 0, 1e39, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}]}"#;
+
+    #[test]
+    fn a_number_f32_cannot_hold_is_named_by_its_key_path_in_gltf_and_glb() {
+        let expected = (
+            "nodes[1].matrix[5]".to_string(),
+            "1e39 is out of f32's range (at most 3.4e38 in magnitude)".to_string(),
+        );
+        assert_eq!(json_error_key(NODE_MATRIX_1E39.as_bytes()), Some(expected.clone()));
+        let mut json = NODE_MATRIX_1E39.as_bytes().to_vec();
+        json.resize(json.len().next_multiple_of(4), b' ');
+        let mut glb = b"glTF".to_vec();
+        glb.extend_from_slice(&2u32.to_le_bytes());
+        glb.extend_from_slice(&(12 + 8 + json.len() as u32).to_le_bytes());
+        glb.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        glb.extend_from_slice(b"JSON");
+        glb.extend_from_slice(&json);
+        assert_eq!(json_error_key(&glb), Some(expected));
+    }
+
+    #[test]
+    fn a_syntax_error_has_no_key_path() {
+        assert_eq!(json_error_key(b"{\"asset\": "), None);
+    }
 }

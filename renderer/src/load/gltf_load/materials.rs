@@ -3,7 +3,8 @@
 //! image sources checked before decoding, every pixel format widened to RGBA8; and the
 //! material extensions a file uses that are not honoured, named in one warning.
 
-use super::files::{decodable_uri, uri_path};
+use super::files::decodable_uri;
+use super::images;
 use super::*;
 use crate::geometry::material::NormalTexture;
 
@@ -105,10 +106,14 @@ fn load_material(
     // Diffuse shading reads the base colour alone: its other textures are not decoded (they
     // would cost it memory and time for nothing), as before materials were read.
     let gltf = geometry.shading == Shading::Gltf;
-    let mut textures = Textures { src, image_slots, geometry };
-    let base_color_texture = textures.optional(pbr.base_color_texture())?;
-    let metallic_roughness_texture = textures.optional(pbr.metallic_roughness_texture().filter(|_| gltf))?;
-    let emissive_texture = textures.optional(m.emissive_texture().filter(|_| gltf))?;
+    let mut textures = Textures { src, image_slots, geometry, material: &key };
+    let base_color_texture =
+        textures.optional("pbrMetallicRoughness.baseColorTexture", pbr.base_color_texture())?;
+    let metallic_roughness_texture = textures.optional(
+        "pbrMetallicRoughness.metallicRoughnessTexture",
+        pbr.metallic_roughness_texture().filter(|_| gltf),
+    )?;
+    let emissive_texture = textures.optional("emissiveTexture", m.emissive_texture().filter(|_| gltf))?;
     let normal_texture = match m.normal_texture() {
         None => None,
         Some(n) => {
@@ -118,7 +123,7 @@ fn load_material(
             }
             let info =
                 TextureInfo::of_normal(&n, |e| fail("normalTexture.extensions.KHR_texture_transform", e))?;
-            gltf.then(|| textures.reference(&info))
+            gltf.then(|| textures.reference("normalTexture", &info))
                 .transpose()?
                 .map(|texture| NormalTexture { texture, scale })
         }
@@ -169,19 +174,26 @@ struct Textures<'s, 'g> {
     src: Source<'s>,
     image_slots: &'s mut HashMap<usize, u32>,
     geometry: &'g mut Geometry,
+    /// The material's key (`materials[i]`), for errors naming what reads an image.
+    material: &'s str,
 }
 
 impl Textures<'_, '_> {
-    /// The reference `info` gives, if any.
-    fn optional(&mut self, info: Option<gltf::texture::Info>) -> Result<Option<TextureRef>, SceneError> {
-        info.map(|i| self.reference(&TextureInfo::of(&i))).transpose()
+    /// The reference `info` gives, if any (`key`: its key in the material).
+    fn optional(
+        &mut self,
+        key: &str,
+        info: Option<gltf::texture::Info>,
+    ) -> Result<Option<TextureRef>, SceneError> {
+        info.map(|i| self.reference(key, &TextureInfo::of(&i))).transpose()
     }
 
-    /// A texture reference: its image decoded into `geometry.textures` the first time any
-    /// material uses it, with the sampler's wrap modes and filter, the KHR_texture_transform
-    /// and the set it reads.
-    fn reference(&mut self, info: &TextureInfo) -> Result<TextureRef, SceneError> {
-        let slot = self.image_slot(&info.texture.source())?;
+    /// A texture reference (`key` in the material): its image decoded into
+    /// `geometry.textures` the first time any material uses it, with the sampler's wrap modes
+    /// and filter, the KHR_texture_transform and the set it reads.
+    fn reference(&mut self, key: &str, info: &TextureInfo) -> Result<TextureRef, SceneError> {
+        let user = format!("textures[{}], {}.{key}", info.texture.index(), self.material);
+        let slot = self.image_slot(&info.texture.source(), &user)?;
         let sampler = info.texture.sampler();
         let transform = info
             .transform
@@ -197,32 +209,19 @@ impl Textures<'_, '_> {
         })
     }
 
-    /// Where `image` is in `geometry.textures`, decoding it the first time.
-    fn image_slot(&mut self, image: &gltf::Image) -> Result<u32, SceneError> {
+    /// Where `image` is in `geometry.textures`, decoding it the first time (`user` names
+    /// the reference that reads it, for its errors).
+    fn image_slot(&mut self, image: &gltf::Image, user: &str) -> Result<u32, SceneError> {
         if let Some(&s) = self.image_slots.get(&image.index()) {
             return Ok(s);
         }
-        let Source { path, base, doc, buffers } = self.src;
-        let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
+        let Source { path, doc, buffers, .. } = self.src;
         if let Some(msg) = image_source_problem(doc, image.index(), buffers) {
-            return Err(fail(&format!("images[{}]", image.index()), msg));
+            return Err(SceneError::new(path, format!("images[{}]", image.index()), msg));
         }
-        let data = gltf::image::Data::from_source(image.source(), Some(base), buffers).map_err(|e| {
-            let (key, what) = match image.source() {
-                gltf::image::Source::Uri { uri, .. } => match uri_path(base, uri) {
-                    Some(p) => (format!("images[{}].uri", image.index()), p.display().to_string()),
-                    None => (format!("images[{}].uri", image.index()), "the data URI".into()),
-                },
-                gltf::image::Source::View { view, .. } => (
-                    format!("images[{}].bufferView", image.index()),
-                    format!("bufferViews[{}]", view.index()),
-                ),
-            };
-            fail(&key, format!("cannot read or decode {what}: {e}"))
-        })?;
-        let tex = to_rgba8(&data).ok_or_else(|| {
-            fail(&format!("images[{}]", image.index()), format!("unsupported pixel format {:?}", data.format))
-        })?;
+        let held = self.geometry.textures.iter().map(|t| t.rgba8.len() as u64 * 4).sum();
+        let room = images::Room { limit: self.geometry.memory_limit, held };
+        let tex = images::decode(self.src, image, user, room)?;
         self.geometry.textures.push(tex);
         let s = self.geometry.textures.len() as u32 - 1;
         self.image_slots.insert(image.index(), s);
@@ -301,44 +300,6 @@ pub(super) fn wrap(mode: gltf::texture::WrappingMode) -> Wrap {
         gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
         gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
     }
-}
-
-pub(super) fn to_rgba8(data: &gltf::image::Data) -> Option<Texture> {
-    use gltf::image::Format;
-    let px = &data.pixels;
-    let (channels, bytes) = match data.format {
-        Format::R8 => (1, 1),
-        Format::R8G8 => (2, 1),
-        Format::R8G8B8 => (3, 1),
-        Format::R8G8B8A8 => (4, 1),
-        Format::R16 => (1, 2),
-        Format::R16G16 => (2, 2),
-        Format::R16G16B16 => (3, 2),
-        Format::R16G16B16A16 => (4, 2),
-        _ => return None,
-    };
-    let stride = channels * bytes;
-    let count = (data.width * data.height) as usize;
-    if px.len() < count * stride {
-        return None;
-    }
-    // 16-bit channels are little-endian in gltf's decoded data: keep the high byte.
-    let get = |i: usize, ch: usize| px[i * stride + ch * bytes + bytes - 1];
-    let rgba8 = (0..count)
-        .map(|i| match channels {
-            1 => {
-                let g = get(i, 0);
-                [g, g, g, 255]
-            }
-            2 => {
-                let g = get(i, 0);
-                [g, g, g, get(i, 1)]
-            }
-            3 => [get(i, 0), get(i, 1), get(i, 2), 255],
-            _ => [get(i, 0), get(i, 1), get(i, 2), get(i, 3)],
-        })
-        .collect();
-    Some(Texture { width: data.width, height: data.height, rgba8 })
 }
 
 /// KHR_texture_transform's matrix: scale, then rotation, then offset. The rotation turns the

@@ -16,12 +16,15 @@ use std::path::Path;
 mod attributes;
 mod files;
 mod gpu_instancing;
+mod images;
 mod materials;
+mod overflow;
 mod primitives;
 mod tangents;
 use attributes::{Needs, read_extras};
 use files::{load_buffers, open_gltf, truncated_glb, uris_out_of_folder};
 use materials::*;
+pub use overflow::Overflow;
 use primitives::*;
 pub use tangents::generate_tangents;
 
@@ -79,6 +82,11 @@ pub struct Geometry {
     pub instances: Vec<Instance>,
     /// Triangles dropped because they have zero area.
     pub degenerate: u64,
+    /// The current node's triangles dropped because its transform takes them out of f32's
+    /// range: warned of per node ([`Overflow::warning`]), then reset.
+    pub overflow: Overflow,
+    /// Every node's such triangles, for the load's counts.
+    pub overflowed: u64,
     /// One line each: what a user should hear of the files loaded (URIs out of a model's
     /// folder).
     pub warnings: Vec<String>,
@@ -135,9 +143,10 @@ pub fn load_gltf(
     geometry: &mut Geometry,
 ) -> Result<Option<GltfCamera>, SceneError> {
     let fail = |key: &str, msg: String| SceneError::new(path, key, msg);
-    let gltf = open_gltf(path).map_err(|e| match truncated_glb(path) {
+    let gltf = open_gltf(path).map_err(|(key, e)| match truncated_glb(path) {
         Some(msg) => fail("", msg),
-        None => fail("", format!("cannot load glTF: {e}")),
+        None if key.is_empty() => fail("", format!("cannot load glTF: {e}")),
+        None => fail(&key, e),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
     plan_instances(path, &gltf.document, geometry)?;
@@ -409,13 +418,32 @@ struct MeshesMet {
     /// A mesh's accessors ([`MeshKey`]) -> the scene's mesh id.
     ids: HashMap<MeshKey, u32>,
     /// A mesh's primitives as read ([`ReadKey`]), for placements kept unflattened.
-    kept: HashMap<ReadKey, std::sync::Arc<Vec<PrimitiveData>>>,
+    kept: HashMap<ReadKey, KeptMesh>,
+}
+
+/// A mesh's primitives as read, shared by its kept placements, and their file-space bounds
+/// (what [`Overflow::count_kept`] tests first).
+type KeptMesh = (std::sync::Arc<Vec<PrimitiveData>>, (Vec3, Vec3));
+
+/// [`place_mesh_node`], then a warning naming the node if its transform took triangles out
+/// of f32's range (they are dropped).
+fn load_mesh_node(
+    file: &FileContext,
+    placed: (&gltf::Node, &gltf::Mesh, DMat4),
+    met: &mut MeshesMet,
+    geometry: &mut Geometry,
+) -> Result<(), SceneError> {
+    place_mesh_node(file, placed, met, geometry)?;
+    let overflow = std::mem::take(&mut geometry.overflow);
+    geometry.overflowed += overflow.triangles;
+    geometry.warnings.extend(overflow.warning(file.path, placed.0.index()));
+    Ok(())
 }
 
 /// One node's mesh under `world`: its topology welded at its first use (later uses only add
 /// an instance), then each placement (one, or `EXT_mesh_gpu_instancing`'s) either kept
 /// unflattened or flattened into `geometry`'s triangles.
-fn load_mesh_node(
+fn place_mesh_node(
     file: &FileContext,
     (node, mesh, world): (&gltf::Node, &gltf::Mesh, DMat4),
     met: &mut MeshesMet,
@@ -450,15 +478,18 @@ fn load_mesh_node(
     if keep {
         let prims: Vec<gltf::Primitive> = mesh.primitives().filter(has_triangles).collect();
         let materials: std::sync::Arc<[u32]> = prims.iter().map(|p| material_id(file, p)).collect();
-        let data = match cached {
+        let (data, bounds) = match cached {
             Some(d) => d,
             None => {
                 let d = std::sync::Arc::new(read.into_iter().map(|r| r.data).collect::<Vec<_>>());
-                met.kept.insert(read_key, d.clone());
-                d
+                let bounds = overflow::mesh_bounds(&d);
+                met.kept.insert(read_key, (d.clone(), bounds));
+                (d, bounds)
             }
         };
         for placed in placements {
+            // The pass over kept instances drops these without counting them again.
+            geometry.overflow.count_kept(&data, bounds, placed);
             let instance = geometry.instances.len() as u32;
             geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
             for (d, p) in data.iter().zip(&prims).filter(|_| geometry.gather_emitters) {

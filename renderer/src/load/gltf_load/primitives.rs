@@ -241,7 +241,8 @@ pub(super) fn triangle_corners(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
 }
 
 /// Appends a primitive's triangles (`corners` into `vertices`) to `geometry` in world space,
-/// counting and dropping those of zero area. Those of an emissive material also become one
+/// counting and dropping those of zero area and those out of f32's range
+/// ([`Geometry::overflow`]). Those of an emissive material also become one
 /// emitter candidate (`path`, the file, names its emissive texture where it has one).
 pub(super) fn push_triangles(
     (world, path): (DMat4, &Path),
@@ -260,6 +261,10 @@ pub(super) fn push_triangles(
         // The winding (and so the front face) kept under a mirroring transform.
         let c = placing.corners(c);
         let p = c.map(|i| placing.position(positions[i as usize]));
+        // Named with its node by the caller: f32 cannot hold it in any render space.
+        if geometry.overflow.count(p) {
+            continue;
+        }
         if crate::geometry::precision::is_degenerate(p) {
             geometry.degenerate += 1;
             continue;
@@ -312,7 +317,7 @@ pub(super) fn emitter_of(
         .corners
         .iter()
         .map(|&c| placing.corners(c).map(|i| placing.position(data.positions[i as usize])))
-        .filter(|p| !crate::geometry::precision::is_degenerate(*p))
+        .filter(|p| crate::geometry::precision::fits_f32(p) && !crate::geometry::precision::is_degenerate(*p))
         .collect();
     (!triangles.is_empty()).then(|| EmitterCandidate {
         triangles,
