@@ -11,3 +11,19 @@ pub mod soups;
 pub mod sphere;
 #[macro_use]
 pub mod tiny_scene;
+
+/// Whether the largest sweeps run whole: under CI (the `CI` variable set, not "false" or
+/// "0", as `.ci/run` runs) or with `PENUMBRA_FULL_TESTS=1`. Otherwise (the README's test
+/// command on a fresh clone, which must take minutes, not a quarter of an hour) they check
+/// every other case of the same sweep with the same assertions: the cases alternate, so
+/// each family and each method is still checked. CONTRIBUTING.md, "Build and test".
+pub fn full_sweeps() -> bool {
+    let set = |name: &str| std::env::var(name).is_ok_and(|v| !v.is_empty() && v != "false" && v != "0");
+    set("CI") || set("PENUMBRA_FULL_TESTS")
+}
+
+/// The cases a sweep checks: all of them under [`full_sweeps`], else every other one
+/// (`k % 2 == parity`), so that two sweeps over the same list can split it.
+pub fn sweep_keeps(k: usize, parity: usize) -> bool {
+    full_sweeps() || k % 2 == parity % 2
+}

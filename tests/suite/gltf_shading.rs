@@ -103,12 +103,13 @@ fn a_white_furnace_reflects_the_brdfs_albedo() {
 }
 
 /// A lobe sharper than the fit (roughness 0.02: a near mirror) takes its light from BSDF
-/// samples that hit the lights: the furnace's mean over 64 samples per pixel, within 0.02
-/// (noise; measured 0.0002 off).
+/// samples that hit the lights: the furnace's mean over 64 samples per pixel (16 outside CI,
+/// `common::full_sweeps`), within 0.02 (noise; measured 0.0002 off at 64).
 #[test]
 fn a_white_furnace_reflects_the_albedo_of_a_near_mirror() {
+    let spp = if common::full_sweeps() { 64 } else { 16 };
     for m in [0.0f32, 1.0] {
-        let pixels = furnace(m, 0.02, 64);
+        let pixels = furnace(m, 0.02, spp);
         check(m, 0.02, &pixels, (0.9, 1.0), 0.02);
     }
 }

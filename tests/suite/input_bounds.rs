@@ -4,9 +4,9 @@
 //! --quiet) and the same lines under `warnings` in the run report; glTF load errors name the
 //! file that failed; SIGINT/SIGTERM leave no temporary file.
 
+use crate::common;
 use crate::common::folders;
 use folders::penumbra;
-use crate::common;
 
 use common::gltf_writer::{
     GltfBuilder, TRIANGLES, TempDir, primitive, write_png_header_only, write_png_rgba,

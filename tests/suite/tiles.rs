@@ -4,8 +4,8 @@
 //! written.
 
 use crate::common::folders;
-use folders::temp_dir;
 use crate::common::tiny_scene;
+use folders::temp_dir;
 
 use penumbra::merge::{MergeArgs, run_merge};
 use penumbra::request::Overrides;
