@@ -27,3 +27,14 @@ pub fn full_sweeps() -> bool {
 pub fn sweep_keeps(k: usize, parity: usize) -> bool {
     full_sweeps() || k % 2 == parity % 2
 }
+
+/// `items` as a sweep checks them: all under [`full_sweeps`], else every other one.
+pub fn sweep<T>(items: Vec<T>, parity: usize) -> Vec<T> {
+    items.into_iter().enumerate().filter(|(k, _)| sweep_keeps(*k, parity)).map(|(_, t)| t).collect()
+}
+
+/// A floor on what a sweep counted (settled samples, ...), against a vacuous pass: the full
+/// sweep's `floor`, or a quarter of it for every other case (cases differ in size).
+pub fn sweep_floor(floor: u64) -> u64 {
+    if full_sweeps() { floor } else { floor / 4 }
+}

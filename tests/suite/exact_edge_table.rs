@@ -85,7 +85,8 @@ fn shared_and_bench_scenes_agree_with_the_bvh() {
     if !common::shared::scenes_present("exact_edge_table::shared_and_bench_scenes_agree_with_the_bvh") {
         return;
     }
-    agree_with_the_bvh(&common::shared::gltf_scene_files(), (64, 48, 256), 1_000_000);
+    let scenes = common::sweep(common::shared::gltf_scene_files(), 0);
+    agree_with_the_bvh(&scenes, (64, 48, 256), common::sweep_floor(1_000_000));
 }
 
 /// Random triangle soups (sizes from a millimetre to a metre, any orientation, some sharing

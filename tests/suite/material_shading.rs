@@ -209,10 +209,11 @@ fn diffuse_reads_nothing_but_base_colour_on_every_shared_scene() {
         render(scene, &mut methods, &settings, &|_| {}).unwrap().radiance
     };
     let mut shaded_differently = 0;
-    for path in common::shared::gltf_scene_files() {
-        let mut file = SceneFile::load(&path).unwrap();
+    let scenes = common::sweep(common::shared::gltf_scene_files(), 1);
+    for path in &scenes {
+        let mut file = SceneFile::load(path).unwrap();
         file.materials.shading = Shading::Diffuse;
-        let mut scene = Scene::load(&file, &path).unwrap();
+        let mut scene = Scene::load(&file, path).unwrap();
         let diffuse = radiance(&scene);
         for m in scene.materials.iter_mut() {
             let base = Material {
@@ -225,13 +226,9 @@ fn diffuse_reads_nothing_but_base_colour_on_every_shared_scene() {
         }
         assert!(radiance(&scene) == diffuse, "{}", path.display());
         file.materials.shading = Shading::Gltf;
-        if radiance(&Scene::load(&file, &path).unwrap()) != diffuse {
+        if radiance(&Scene::load(&file, path).unwrap()) != diffuse {
             shaded_differently += 1;
         }
     }
-    assert_eq!(
-        shaded_differently,
-        common::shared::gltf_scene_files().len(),
-        "every scene has a specular lobe"
-    );
+    assert_eq!(shaded_differently, scenes.len(), "every scene has a specular lobe");
 }
