@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
-# Two builds side by side: for each scene and method, the report's render seconds at 320x240,
-# three runs of each in turn (A B A B A B), medians and their ratio A/B.
-# Usage: scripts/ab-cost.sh BIN_A BIN_B [METHODS...]   (default: traced analytic; quiet machine)
+# Two ways of rendering side by side: for each scene and method, the report's render seconds at
+# 320x240, three runs of each in turn (A B A B A B), medians and their ratio A/B. A and B are
+# each a binary and, optionally, flags added to every render (one string, split on spaces).
+# Usage: scripts/ab-cost.sh 'BIN_A [FLAGS]' 'BIN_B [FLAGS]' [METHODS...]
+#   (default methods: traced analytic; a quiet machine)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-a=$1 b=$2
+read -r -a a <<<"$1"
+read -r -a b <<<"$2"
 shift 2
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
@@ -14,9 +17,9 @@ for m in ${@:-traced analytic}; do
     times=""
     for _ in 1 2 3; do
       for side in a b; do
-        bin=$a
-        [ "$side" = b ] && bin=$b
-        "$bin" render "$f" --width 320 --height 240 --shadows "$m" --out "$out/$n-$side.png" --quiet >/dev/null 2>&1
+        if [ "$side" = a ]; then cmd=("${a[@]}"); else cmd=("${b[@]}"); fi
+        "${cmd[0]}" render "$f" --width 320 --height 240 --shadows "$m" --out "$out/$n-$side.png" \
+          --quiet "${cmd[@]:1}" >/dev/null 2>&1
         times+="$side $(python3 -c "import json,sys;print(json.load(open(sys.argv[1]))['timings_s']['render'])" "$out/$n-$side.json") "
       done
     done
