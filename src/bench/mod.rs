@@ -76,8 +76,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub quick: bool,
     /// Render every setting, and the truth, as paths of this depth (2 = direct light only).
-    /// Above 2 the truth traces the very same paths (same seed), so the image error is the
-    /// shadow method's along them, not the paths' own noise.
+    /// The truth traces the very same paths (same seed; at 2, glTF shading's one BRDF ray a
+    /// point sends), so the image error is the shadow method's along them, not the paths'.
     #[arg(long, default_value_t = 2, allow_negative_numbers = true, value_parser = crate::flags::depth)]
     pub max_depth: u32,
     /// No per-run progress lines on stderr.
