@@ -241,6 +241,70 @@ fn the_camera_sees_a_textured_emitters_emission() {
     }
 }
 
+/// Writes `<stem>.gltf`: the grey floor and a 0.6 m square lamp 1.5 m above it facing down,
+/// an untextured emissive material named "lamp" (radiance `lamp` x 50).
+fn write_lamp(dir: &TempDir, stem: &str, lamp: f64) {
+    let mut b = GltfBuilder::new();
+    b.use_extension("KHR_materials_emissive_strength");
+    let grey = b.material(json!({"pbrMetallicRoughness": {
+        "baseColorFactor": [FLOOR_RHO, FLOOR_RHO, FLOOR_RHO, 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0}}));
+    let glow = b.material(json!({"name": "lamp", "emissiveFactor": [lamp, lamp, lamp],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 50.0}}}));
+    let c = [[-0.3, 1.5, -0.3], [0.3, 1.5, -0.3], [0.3, 1.5, 0.3], [-0.3, 1.5, 0.3]];
+    let meshes = [floor(&mut b, grey), rectangle(&mut b, c, [[0.0; 2]; 4], DVec3::NEG_Y, glow)];
+    write_scene(b, &meshes, dir, stem);
+}
+
+/// The lamp scene with a `[[light]]` of its size at height `y`, seen from where the lamp is
+/// out of the frame.
+fn lamp_toml(stem: &str, y: f64) -> String {
+    format!(
+        "[[model]]\npath = \"{stem}.gltf\"\n[camera]\nposition = [0.0, 1.0, 2.5]\nlook_at = [0.0, 0.0, 0.0]\n\
+         yfov_deg = 30.0\n[integrator]\nmax_depth = 2\n[[light]]\ncenter = [0.0, {y:?}, 0.0]\n\
+         u = [0.6, 0.0, 0.0]\nv = [0.0, 0.0, 0.6]\nradiance = [50.0, 50.0, 50.0]\n"
+    )
+}
+
+/// A scene file's `[[light]]` lights the scene alone: a model's emissive surface off it is no
+/// light (no method samples it; bounce rays find it by chance), which one warning says,
+/// naming the material. Laid over the lamp, the light counts the lamp's hits as its own: no
+/// warning, and the very bytes of the scene whose lamp does not emit (the lamp once, not
+/// twice). Diffuse shading shows no emission: no warning.
+#[test]
+fn an_emitter_off_the_scene_files_lights_is_named_and_one_under_a_light_counts_once() {
+    let dir = TempDir::new("cases_lamp");
+    write_lamp(&dir, "lamp", 1.0);
+    write_lamp(&dir, "dark", 0.0);
+    let args = ["--width", "32", "--height", "24", "--shadows", "traced", "--samples", "64"];
+    let words =
+        "lamp.gltf: materials[1] (\"lamp\") emits but is not a light, since the scene file gives [[light]]";
+
+    std::fs::write(dir.join("below.toml"), lamp_toml("lamp", 1.4)).unwrap();
+    let o = render(&dir.path, "below.toml", &args);
+    let (stderr, listed) = warnings_naming(&dir.path, &o, "materials[1]");
+    eprintln!("{}", stderr.join("\n"));
+    assert_eq!(stderr.len(), 1, "one line: {stderr:?}");
+    assert!(stderr[0].starts_with(&format!("warning: {words}")), "{stderr:?}");
+    assert!(stderr[0].contains("drop [[light]]") && listed.len() == 1, "{stderr:?} {listed:?}");
+    let o = render(&dir.path, "below.toml", &[&args[..], &["--shading", "diffuse"]].concat());
+    assert_eq!(warnings_naming(&dir.path, &o, "materials[1]").0, Vec::<String>::new());
+
+    std::fs::write(dir.join("over.toml"), lamp_toml("lamp", 1.5)).unwrap();
+    std::fs::write(dir.join("dark.toml"), lamp_toml("dark", 1.5)).unwrap();
+    let o = render(&dir.path, "over.toml", &args);
+    assert!(
+        !String::from_utf8_lossy(&o.stderr).contains("warning"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let over = std::fs::read(dir.join("out.exr")).unwrap();
+    render(&dir.path, "dark.toml", &args);
+    assert!(
+        over == std::fs::read(dir.join("out.exr")).unwrap(),
+        "the lamp under its light was counted twice"
+    );
+}
+
 /// Appendix B's BRDF of the floor (a dielectric of base colour `rho`, roughness 1) times
 /// cos(wi), with the height-correlated Smith visibility, in f64: the truth the bounce is held
 /// to. `n` is the floor's normal (+y).

@@ -9,7 +9,7 @@ use crate::geometry::light::RectLight;
 use crate::geometry::material::{Material, Shading};
 use crate::geometry::precision::f32_spacing;
 use crate::geometry::scene::{LoadStats, Scene, TriangleShading, camera_frame_ok, cover_depth};
-use crate::load::gltf_load::{Geometry, GltfCamera, SourceTriangle, load_gltf};
+use crate::load::gltf_load::{Geometry, GltfCamera, SourceTriangle, UnlitEmitters, load_gltf};
 use crate::load::precision_tally::PrecisionTally;
 use crate::load::scene_file::{LightDesc, SceneFile};
 use crate::util::error::SceneError;
@@ -71,6 +71,11 @@ impl Scene {
             may_keep_instances: options.keep != KeepInstances::Never,
             shading: file.materials.shading,
             gather_emitters: file.light.is_empty(),
+            // Diffuse shading shows no emission: nothing to warn of.
+            unlit: match file.materials.shading {
+                Shading::Gltf => UnlitEmitters::new(&file.light),
+                Shading::Diffuse => UnlitEmitters::default(),
+            },
             ..Geometry::default()
         };
         let gltf_camera = load_models(file, scene_path, &mut geometry)?;
@@ -98,6 +103,7 @@ impl Scene {
             scene_path,
             &mut warnings,
         )?;
+        warnings.extend(geometry.unlit.warnings());
         let camera = scene_camera(file, gltf_camera, world_offset, scene_path)?;
         let load = t0.elapsed();
         drop(load_span);

@@ -21,12 +21,14 @@ mod materials;
 mod overflow;
 mod primitives;
 mod tangents;
+mod unlit_emitters;
 use attributes::{Needs, read_extras};
 use files::{load_buffers, open_gltf, truncated_glb, uris_out_of_folder};
 use materials::*;
 pub use overflow::Overflow;
 use primitives::*;
 pub use tangents::generate_tangents;
+pub use unlit_emitters::UnlitEmitters;
 
 /// A triangle as loaded: world positions in f64 (before the scene is recentred), optional
 /// world-space vertex normals, texture coordinates and a material index (into the scene's
@@ -77,6 +79,8 @@ pub struct Geometry {
     /// `[[light]]`): else they would be copied for nothing (toy-car's body, 89k triangles, is
     /// emissive through a texture).
     pub gather_emitters: bool,
+    /// The scene file's `[[light]]`s and the emissive materials met off them (a warning each).
+    pub unlit: UnlitEmitters,
     /// Meshes and the instances that place them, which `SourceTriangle::origin` names.
     pub meshes: Vec<MeshTopology>,
     pub instances: Vec<Instance>,
@@ -492,8 +496,11 @@ fn place_mesh_node(
             geometry.overflow.count_kept(&data, bounds, placed);
             let instance = geometry.instances.len() as u32;
             geometry.instances.push(Instance { mesh: mesh_id, mirrored: placed.determinant() < 0.0 });
-            for (d, p) in data.iter().zip(&prims).filter(|_| geometry.gather_emitters) {
-                geometry.emitters.extend(emitter_of(d, &p.material(), placed, file.path));
+            for (d, p) in data.iter().zip(&prims) {
+                if geometry.gather_emitters {
+                    geometry.emitters.extend(emitter_of(d, &p.material(), placed, file.path));
+                }
+                geometry.unlit.check_kept(d, &p.material(), placed, file.path);
             }
             let (primitives, materials) = (data.clone(), materials.clone());
             geometry.placements.push(Placement { primitives, world: placed, materials, instance });

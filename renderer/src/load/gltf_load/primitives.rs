@@ -256,6 +256,7 @@ pub(super) fn push_triangles(
     let placing = Placing::new(world);
     let emissive = emission(material, path).filter(|_| geometry.gather_emitters);
     let mut emitter_tris = Vec::new();
+    let mut unlit = geometry.unlit.pending(material, path);
     for (local, &c) in (origin.local..).zip(corners) {
         let origin = TriangleOrigin { local, ..origin };
         // The winding (and so the front face) kept under a mirroring transform.
@@ -280,6 +281,9 @@ pub(super) fn push_triangles(
         geometry.triangles.push(SourceTriangle { p, n, uv, material: mat_id, origin });
         if emissive.is_some() {
             emitter_tris.push(p);
+        }
+        if unlit.as_ref().is_some_and(|key| geometry.unlit.check(key, &p)) {
+            unlit = None;
         }
     }
     if let Some((radiance, emissive_texture)) = emissive.filter(|_| !emitter_tris.is_empty()) {
