@@ -15,11 +15,12 @@ on every run. It exercises a renderer that flattens instances into world triangl
 LEVELS (default 6) sets the icosphere's subdivisions: 4 gives 5,120 triangles a boulder
 (scenes/models/boulder-field-400.glb, the bench's instanced scene, is `400 ... 4`).
 """
-import json
 import math
 import random
 import struct
 import sys
+
+from glb import write_glb
 
 
 def boulder(levels=6, radius=0.5, amp=0.15):
@@ -122,13 +123,7 @@ def main():
             {"bufferView": 1, "componentType": 5126, "count": nv, "type": "VEC3"},
             {"bufferView": 2, "componentType": idx_type, "count": 3 * len(faces), "type": "SCALAR"}],
     }
-    js = json.dumps(doc, separators=(",", ":"), sort_keys=True).encode()
-    js += b" " * (-len(js) % 4)
-    total = 12 + 8 + len(js) + 8 + len(bin_)
-    with open(out, "wb") as fh:
-        fh.write(struct.pack("<III", 0x46546C67, 2, total))
-        fh.write(struct.pack("<II", len(js), 0x4E4F534A) + js)
-        fh.write(struct.pack("<II", len(bin_), 0x004E4942) + bin_)
+    total = write_glb(out, doc, bin_)
     print("%s: %d nodes x %d triangles (%d vertices), %d bytes" % (out, n, len(faces), nv, total))
 
 

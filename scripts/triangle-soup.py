@@ -10,11 +10,11 @@ With no shared edges every edge of every triangle is a silhouette edge: the case
     python3 scripts/triangle-soup.py N OUT.glb
 """
 import array
-import json
 import math
 import random
-import struct
 import sys
+
+from glb import write_glb
 
 
 def main():
@@ -59,13 +59,7 @@ def main():
         "accessors": [{"bufferView": 0, "componentType": 5126, "count": nv, "type": "VEC3",
                        "min": lo, "max": hi}],
     }
-    js = json.dumps(doc, separators=(",", ":"), sort_keys=True).encode()
-    js += b" " * (-len(js) % 4)
-    total = 12 + 8 + len(js) + 8 + len(bin_)
-    with open(out, "wb") as fh:
-        fh.write(struct.pack("<III", 0x46546C67, 2, total))
-        fh.write(struct.pack("<II", len(js), 0x4E4F534A) + js)
-        fh.write(struct.pack("<II", len(bin_), 0x004E4942) + bin_)
+    total = write_glb(out, doc, bin_)
     print("%s: %d loose triangles (%d vertices), %d bytes" % (out, n, nv, total))
 
 
