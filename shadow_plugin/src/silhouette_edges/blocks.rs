@@ -42,6 +42,14 @@ const BLOCK_DIVISOR: f64 = 32.0;
 /// a few rows per cube, a band's cubes fit.
 const ENTRIES: usize = 256;
 
+/// Most bytes one thread's entries hold in their lists (their allocations); past it, the
+/// entries read longest ago are freed (read again from the store, or walked again). Ordinary
+/// scenes never come near it: `silhouette` stops a list at twice its candidate limit. But
+/// `analytic` reads a block's whole list: on a soup of a million loose 4 mm triangles
+/// (`scenes/stress/triangle-soup.toml`) a block held up to 360k candidates (about 77 bytes
+/// each), and 256 entries that never gave their memory back took the run to a 9.6 GB peak.
+const MAX_CACHED_BYTES: usize = 256 << 20;
+
 /// A block of space: the occluders' build it belongs to ([`OccluderEdges::id`]), its level (cube side 2^level)
 /// and its cube.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -63,6 +71,8 @@ impl Key {
 #[derive(Debug, Default)]
 struct Entry {
     key: Option<Key>,
+    /// The cache's read count when this entry was last read (the oldest are freed first).
+    used: u64,
     /// Why no point reads this block's list: a tree deeper than the traversal's stack, or
     /// more candidates than the counting pays for (the walk stops there).
     refused: Option<GatherRefusal>,
@@ -75,9 +85,19 @@ struct Entry {
 }
 
 /// One thread's blocks.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub(super) struct Blocks {
     entries: Vec<Entry>,
+    /// Reads so far (the entries' `used`).
+    reads: u64,
+    /// The bound on the entries' bytes ([`MAX_CACHED_BYTES`]; tests set less).
+    max_bytes: usize,
+}
+
+impl Default for Blocks {
+    fn default() -> Self {
+        Self { entries: Vec::new(), reads: 0, max_bytes: MAX_CACHED_BYTES }
+    }
 }
 
 /// What one block gives a point: its candidate edges with their weights over the block, and
@@ -106,8 +126,13 @@ impl Blocks {
         if self.entries.is_empty() {
             self.entries.resize_with(ENTRIES, Entry::default);
         }
-        let entry = &mut self.entries[key.slot()];
+        let slot = key.slot();
+        let entry = &mut self.entries[slot];
         if entry.key != Some(key) {
+            // A long list's allocation is not kept for the shorter ones after it.
+            if entry.bytes() > self.max_bytes / ENTRIES {
+                *entry = Entry::default();
+            }
             if let Some(walked) = occluders.walked.get(&key) {
                 entry.read(&walked, &tree.records);
             } else {
@@ -115,8 +140,11 @@ impl Blocks {
                 occluders.walked.offer(key, entry);
             }
             entry.key = Some(key);
+            self.free_over_budget(slot);
         }
-        let entry = &self.entries[key.slot()];
+        self.reads += 1;
+        let entry = &mut self.entries[slot];
+        entry.used = self.reads;
         Some(match entry.refused {
             None => Ok(BlockList { candidates: &entry.candidates, triangles: &entry.triangles }),
             Some(why) => Err(why),
@@ -124,7 +152,41 @@ impl Blocks {
     }
 }
 
+impl Blocks {
+    /// Frees the entries read longest ago, other than `keep`, while the lists hold more than
+    /// `max_bytes` (`keep`'s alone may: the point reading it needs it whole). The answers do
+    /// not depend on what the cache holds.
+    fn free_over_budget(&mut self, keep: usize) {
+        let mut total: usize = self.entries.iter().map(Entry::bytes).sum();
+        while total > self.max_bytes {
+            let oldest = (self.entries.iter().enumerate())
+                .filter(|&(k, e)| k != keep && e.bytes() > 0)
+                .min_by_key(|(_, e)| e.used)
+                .map(|(k, _)| k);
+            let Some(k) = oldest else { break };
+            total -= self.entries[k].bytes();
+            self.entries[k] = Entry::default();
+        }
+    }
+
+    /// Bytes the entries' lists hold.
+    #[cfg(test)]
+    fn bytes(&self) -> usize {
+        self.entries.iter().map(Entry::bytes).sum()
+    }
+}
+
 impl Entry {
+    /// Bytes its lists hold (their allocations).
+    fn bytes(&self) -> usize {
+        use std::mem::size_of;
+        self.edges.capacity() * size_of::<u32>()
+            + self.candidates.capacity() * size_of::<Candidate>()
+            + self.triangles.capacity() * size_of::<u32>()
+            + self.positions.capacity() * size_of::<u32>()
+            + self.weights.capacity() * size_of::<i8>()
+    }
+
     /// Walks the tree (and the kept instances) for the block of ball (`centre`, `radius`);
     /// `None` where no shaft holds the ball.
     fn walk(
@@ -288,4 +350,53 @@ fn block_of(occluders: u64, light: &RectLight, origin: Vec3) -> Option<(Key, DVe
 #[inline(always)]
 pub(super) fn vertex_a(set: &EdgeSet, i: u32) -> Vec3A {
     Vec3A::from(set.vertices[i as usize])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use renderer::Camera;
+    use renderer::load::gltf_load::Geometry;
+    use std::time::Duration;
+
+    /// A cache bounded far under its blocks' lists holds at most its bound (or the one list
+    /// being read, alone), frees the entries read longest ago, and gives every point the
+    /// same list as an unbounded cache: 1,600 tilted 2 cm quads under a 1 m light, read from
+    /// 225 blocks twice over.
+    #[test]
+    fn the_cache_holds_its_bound_and_the_same_lists() {
+        let mut g = Geometry::default();
+        for k in 0..1600 {
+            let (i, j) = ((k % 40) as f64, (k / 40) as f64);
+            let centre = DVec3::new(-0.6 + 0.03 * i, 1.2 + 0.01 * (k % 7) as f64, -0.6 + 0.03 * j);
+            let tilt = 0.3 * ((k % 5) as f64 - 2.0);
+            g.add_quad(centre, DVec3::new(0.02, 0.02 * tilt, 0.0), DVec3::new(0.0, 0.0, -0.02), [0.5; 3]);
+        }
+        let light = RectLight::new(Vec3::new(0.0, 2.0, 0.0), Vec3::X, Vec3::Z, Vec3::ONE);
+        let camera = Camera::look_at(Vec3::new(0.0, 1.5, 2.5), Vec3::ZERO, Vec3::Y, 40.0);
+        let scene = Scene::build(g, vec![light], camera, DVec3::ZERO, Duration::ZERO);
+        let (bounded_set, reference_set) =
+            (OccluderEdges::build(&scene, &light), OccluderEdges::build(&scene, &light));
+        let mut bounded = Blocks { max_bytes: 256 << 10, ..Blocks::default() };
+        let mut reference = Blocks { max_bytes: usize::MAX, ..Blocks::default() };
+        let origins: Vec<Vec3> = (0..225)
+            .map(|k| Vec3::new(-0.5 + 0.07 * (k % 15) as f32, 0.0, -0.5 + 0.07 * (k / 15) as f32))
+            .collect();
+        let list = |b: &mut Blocks, set: &OccluderEdges, o: Vec3| {
+            let got = b.list(set, &light, &scene, o, usize::MAX).expect("a block").expect("a list");
+            let edges: Vec<_> = got.candidates.iter().map(|c| (c.edge, c.weight, c.a, c.b)).collect();
+            (edges, got.triangles.to_vec())
+        };
+        let mut longest = 0;
+        for &o in origins.iter().chain(&origins) {
+            let want = list(&mut reference, &reference_set, o);
+            assert_eq!(list(&mut bounded, &bounded_set, o), want, "origin {o}");
+            longest = longest.max(want.0.len());
+            let largest = bounded.entries.iter().map(Entry::bytes).max().unwrap_or(0);
+            assert!(bounded.bytes() <= bounded.max_bytes.max(largest), "{} bytes", bounded.bytes());
+        }
+        // The bound was met: the unbounded cache holds several times it.
+        assert!(longest > 1000, "{longest} candidates in the longest list");
+        assert!(reference.bytes() > 4 * bounded.max_bytes, "{} bytes unbounded", reference.bytes());
+    }
 }
